@@ -1,0 +1,1 @@
+//! Kinematic arm simulator: joint integration, limits, gripper, objects, admittance teaching.

@@ -1,0 +1,1 @@
+//! Attentional supervisor: schema LTM, working memory, attentional regulation (thesis Sec. 3.3, 4.3, 5.2).

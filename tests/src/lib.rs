@@ -1,0 +1,1 @@
+//! Cross-node integration tests of the cowork graph.
