@@ -29,7 +29,9 @@ fn secs_to_nanos(secs: f64) -> i64 {
 ///
 /// A time before the epoch (or a negative duration) keeps `nanosec` non-negative:
 /// -1.7 s is `{ sec: -2, nanosec: 300_000_000 }`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 pub struct Time {
     /// Seconds (s).
     pub sec: i32,
@@ -63,7 +65,9 @@ impl Time {
 ros_message!(Time = "builtin_interfaces" / "Time" in "ros_std/builtin_interfaces/msg", deps []);
 
 /// ROS duration: `sec` seconds plus `nanosec` nanoseconds in [0, 1e9).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 pub struct Duration {
     /// Seconds (s).
     pub sec: i32,
@@ -103,7 +107,13 @@ mod tests {
     #[test]
     fn negative_time_keeps_nanosec_positive() {
         let t = Time::from_secs_f64(-1.7);
-        assert_eq!(t, Time { sec: -2, nanosec: 300_000_000 });
+        assert_eq!(
+            t,
+            Time {
+                sec: -2,
+                nanosec: 300_000_000
+            }
+        );
         assert_eq!(t.to_nanos(), -1_700_000_000);
     }
 
@@ -113,8 +123,20 @@ mod tests {
             assert_eq!(Time::from_nanos(n).to_nanos(), n);
             assert_eq!(Duration::from_nanos(n).to_nanos(), n);
         }
-        assert_eq!(Time::from_nanos(i64::MAX), Time { sec: i32::MAX, nanosec: 999_999_999 });
-        assert_eq!(Time::from_nanos(i64::MIN), Time { sec: i32::MIN, nanosec: 0 });
+        assert_eq!(
+            Time::from_nanos(i64::MAX),
+            Time {
+                sec: i32::MAX,
+                nanosec: 999_999_999
+            }
+        );
+        assert_eq!(
+            Time::from_nanos(i64::MIN),
+            Time {
+                sec: i32::MIN,
+                nanosec: 0
+            }
+        );
         assert_eq!(Time::from_secs_f64(f64::NAN), Time::default());
         assert!((Time::from_secs_f64(12.25).to_secs_f64() - 12.25).abs() < 1e-12);
     }

@@ -13,7 +13,9 @@ pub const CDR_LE_HEADER: [u8; 4] = [0x00, 0x01, 0x00, 0x00];
 #[non_exhaustive]
 pub enum CdrError {
     /// The payload is shorter than the 4-byte encapsulation header.
-    #[error("{type_name}: CDR payload of {len} bytes is shorter than the 4-byte encapsulation header")]
+    #[error(
+        "{type_name}: CDR payload of {len} bytes is shorter than the 4-byte encapsulation header"
+    )]
     TooShort {
         /// ROS type the payload was decoded as.
         type_name: String,
@@ -77,7 +79,10 @@ pub fn to_cdr_into<T: RosMessage>(msg: &T, out: &mut Vec<u8>) {
 /// Trailing bytes after the message (alignment padding) are ignored.
 pub fn from_cdr<T: RosMessage>(bytes: &[u8]) -> Result<T, CdrError> {
     let Some((header, body)) = bytes.split_first_chunk::<4>() else {
-        return Err(CdrError::TooShort { type_name: T::type_name(), len: bytes.len() });
+        return Err(CdrError::TooShort {
+            type_name: T::type_name(),
+            len: bytes.len(),
+        });
     };
     let decoded = match [header[0], header[1]] {
         [0x00, 0x01] => cdr_encoding::from_bytes::<T, LittleEndian>(body),
@@ -89,22 +94,29 @@ pub fn from_cdr<T: RosMessage>(bytes: &[u8]) -> Result<T, CdrError> {
             });
         }
     };
-    decoded.map(|(msg, _consumed)| msg).map_err(|source| CdrError::Decode {
-        type_name: T::type_name(),
-        len: body.len(),
-        source,
-    })
+    decoded
+        .map(|(msg, _consumed)| msg)
+        .map_err(|source| CdrError::Decode {
+            type_name: T::type_name(),
+            len: body.len(),
+            source,
+        })
 }
 
 /// Decodes a CDR payload of type `T` into a JSON value (field names as in the `.msg`).
 pub(crate) fn cdr_to_json<T: RosMessage>(bytes: &[u8]) -> Result<serde_json::Value, CdrError> {
     let msg: T = from_cdr(bytes)?;
-    serde_json::to_value(&msg).map_err(|source| CdrError::Json { type_name: T::type_name(), source })
+    serde_json::to_value(&msg).map_err(|source| CdrError::Json {
+        type_name: T::type_name(),
+        source,
+    })
 }
 
 /// Encodes a JSON value (as produced by [`cdr_to_json`]) of type `T` as CDR.
 pub(crate) fn json_to_cdr<T: RosMessage>(value: &serde_json::Value) -> Result<Vec<u8>, CdrError> {
-    let msg: T = serde_json::from_value(value.clone())
-        .map_err(|source| CdrError::Json { type_name: T::type_name(), source })?;
+    let msg: T = serde_json::from_value(value.clone()).map_err(|source| CdrError::Json {
+        type_name: T::type_name(),
+        source,
+    })?;
     Ok(to_cdr(&msg))
 }

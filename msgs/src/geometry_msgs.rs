@@ -77,7 +77,12 @@ pub struct Quaternion {
 
 impl Quaternion {
     /// The identity rotation.
-    pub const IDENTITY: Self = Self { x: 0.0, y: 0.0, z: 0.0, w: 1.0 };
+    pub const IDENTITY: Self = Self {
+        x: 0.0,
+        y: 0.0,
+        z: 0.0,
+        w: 1.0,
+    };
 
     /// The quaternion with scalar part `w` and vector part (x, y, z), not normalised.
     pub const fn new(x: f64, y: f64, z: f64, w: f64) -> Self {
@@ -172,8 +177,17 @@ pub struct TransformStamped {
 
 impl TransformStamped {
     /// The transform of `child` in `parent` at `stamp`.
-    pub fn new(stamp: Time, parent: impl Into<String>, child: impl Into<String>, transform: Transform) -> Self {
-        Self { header: Header::new(stamp, parent), child_frame_id: child.into(), transform }
+    pub fn new(
+        stamp: Time,
+        parent: impl Into<String>,
+        child: impl Into<String>,
+        transform: Transform,
+    ) -> Self {
+        Self {
+            header: Header::new(stamp, parent),
+            child_frame_id: child.into(),
+            transform,
+        }
     }
 }
 

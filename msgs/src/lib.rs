@@ -91,11 +91,7 @@ impl TypeDescription {
         out
     }
 
-    fn append_definition(
-        &self,
-        seen: &mut Vec<(&'static str, &'static str)>,
-        out: &mut String,
-    ) {
+    fn append_definition(&self, seen: &mut Vec<(&'static str, &'static str)>, out: &mut String) {
         out.push_str(self.msg);
         let mut deps: Vec<&TypeDescription> = self.dependencies.iter().collect();
         // rosbag2 keeps the dependencies of one .msg in a std::set<std::string>.
@@ -118,6 +114,17 @@ impl TypeDescription {
     }
 }
 
+/// One constant of a `.msg` file, as the Rust side declares it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Constant {
+    /// Constant name, e.g. `"MODE_FAR"`.
+    pub name: &'static str,
+    /// Rust type of the associated constant, e.g. `"u8"`.
+    pub rust_type: &'static str,
+    /// Value as written, e.g. `"0"` or `"\"xsens\""`.
+    pub value: &'static str,
+}
+
 /// A Rust struct that is the ROS 2 message `PACKAGE/msg/NAME`.
 ///
 /// Implemented (through an internal macro) for every message of this crate; the macro reads
@@ -135,9 +142,8 @@ pub trait RosMessage:
     const MSG: &'static str;
     /// Direct dependencies: one entry per distinct non-primitive field type of `MSG`.
     const DEPENDENCIES: &'static [TypeDescription];
-    /// The `.msg` constants as `(NAME, value as written in the .msg)`; each is also an
-    /// associated constant of the struct.
-    const CONSTANTS: &'static [(&'static str, &'static str)] = &[];
+    /// The `.msg` constants; each is also an associated constant of the struct.
+    const CONSTANTS: &'static [Constant] = &[];
     /// Everything above in one value (used for dependency lists).
     const DESCRIPTION: TypeDescription = TypeDescription {
         package: Self::PACKAGE,
@@ -181,8 +187,13 @@ macro_rules! ros_message {
             const DEPENDENCIES: &'static [$crate::TypeDescription] =
                 &[$(<$dep as $crate::RosMessage>::DESCRIPTION),*];
             $(
-                const CONSTANTS: &'static [(&'static str, &'static str)] =
-                    &[$((stringify!($cname), stringify!($cval))),*];
+                const CONSTANTS: &'static [$crate::Constant] = &[$(
+                    $crate::Constant {
+                        name: stringify!($cname),
+                        rust_type: stringify!($cty),
+                        value: stringify!($cval),
+                    }
+                ),*];
             )?
         }
         $(

@@ -67,7 +67,10 @@ impl Skeleton {
 
     /// Pose of the segment called `name`, if present.
     pub fn segment(&self, name: &str) -> Option<&Pose> {
-        self.segment_names.iter().position(|n| n == name).and_then(|i| self.poses.get(i))
+        self.segment_names
+            .iter()
+            .position(|n| n == name)
+            .and_then(|i| self.poses.get(i))
     }
 }
 
@@ -169,7 +172,10 @@ ros_message!(LinkDistances = "cowork_msgs" / "LinkDistances" in "msg", deps [Hea
 impl LinkDistances {
     /// The entry at `min_index`, if it is valid.
     pub fn closest(&self) -> Option<&LinkDistance> {
-        usize::try_from(self.min_index).ok().and_then(|i| self.links.get(i)).filter(|l| l.valid)
+        usize::try_from(self.min_index)
+            .ok()
+            .and_then(|i| self.links.get(i))
+            .filter(|l| l.valid)
     }
 }
 

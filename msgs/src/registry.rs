@@ -48,7 +48,10 @@ pub fn type_name_matches(package: &str, name: &str, candidate: &str) -> bool {
     let Some(rest) = candidate.strip_prefix(package) else {
         return false;
     };
-    if let Some(n) = rest.strip_prefix("/msg/").or_else(|| rest.strip_prefix('/')) {
+    if let Some(n) = rest
+        .strip_prefix("/msg/")
+        .or_else(|| rest.strip_prefix('/'))
+    {
         return n == name;
     }
     rest.strip_prefix("::msg::dds_::")

@@ -17,7 +17,10 @@ pub struct Header {
 impl Header {
     /// A header with the given stamp and frame.
     pub fn new(stamp: Time, frame_id: impl Into<std::string::String>) -> Self {
-        Self { stamp, frame_id: frame_id.into() }
+        Self {
+            stamp,
+            frame_id: frame_id.into(),
+        }
     }
 }
 
@@ -75,7 +78,10 @@ pub struct Float64MultiArray {
 impl Float64MultiArray {
     /// A flat vector with an empty layout.
     pub fn from_vec(data: Vec<f64>) -> Self {
-        Self { layout: MultiArrayLayout::default(), data }
+        Self {
+            layout: MultiArrayLayout::default(),
+            data,
+        }
     }
 }
 
