@@ -1,1 +1,33 @@
-//! Motion representation: DMP, GMM/GMR, C-GMR, DHB invariants, DTW, HMM (thesis Ch. 3).
+//! Motion representation library of cowork (thesis Ch. 3, App. A.3, App. B), with no ROS
+//! dependency: DMP, GMM/EM with BIC, GMR and the GMR dynamical system, contracting GMR,
+//! invariant descriptors (unidirectional, DHB, EFS/DS), DTW and k-NN, HMM primitives, and the
+//! demonstration CSV format used by `cowork learn`.
+//!
+//! ```
+//! use cowork_motion::{Demonstration, Cgmr, CgmrConfig, Components, EmConfig, RolloutConfig, rollout};
+//! let t: Vec<f64> = (0..100).map(|i| i as f64 * 0.01).collect();
+//! let pos: Vec<f64> = t.iter().flat_map(|t| [1.0 - t, (1.0 - t) * (1.0 - t)]).collect();
+//! let demo = Demonstration::new(2, t, pos, None).unwrap();
+//! let model = Cgmr::fit(&[demo], Components::Fixed(3), &EmConfig::default(), 1, &CgmrConfig::default()).unwrap();
+//! let mut runner = model.runner(None).unwrap();
+//! let tr = rollout(&mut runner, &[1.0, 1.0], &RolloutConfig { dt: 0.002, max_steps: 10_000, tol: 1e-3 }).unwrap();
+//! assert!(tr.reached);
+//! ```
+
+pub mod cgmr;
+pub mod demo;
+pub mod dhb;
+pub mod dmp;
+pub mod ds;
+pub mod dtw;
+pub mod error;
+pub mod gmm;
+pub mod gmr;
+mod linalg;
+
+pub use cgmr::{Cgmr, CgmrConfig, CgmrRunner, Components, Region, mu1, stabilizing_gains};
+pub use demo::Demonstration;
+pub use ds::{Autonomous, DsPolicy, FirstOrderDs, LinearDs, RolloutConfig, Trajectory, rollout};
+pub use error::{MotionError, Result};
+pub use gmm::{BicSelection, EmConfig, Gmm, GmmFit};
+pub use gmr::{Gmr, GmrDs};

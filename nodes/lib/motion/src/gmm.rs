@@ -1,0 +1,519 @@
+//! Gaussian mixture models learned by expectation–maximisation, with BIC model selection
+//! (thesis App. A.3.2, Sec. 3.1.4).
+//!
+//! Data are row-major flat slices: `n` samples of dimension `d` laid out as `[x₀₀ … x₀_d−1, x₁₀ …]`.
+//! Covariances are full, regularised by `reg_covar · I` after every M-step (as scikit-learn does).
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{MotionError, Result, check_finite, invalid};
+use crate::linalg::{LN_2PI, chol_logdet, cholesky, logsumexp, solve_lower};
+
+/// A Gaussian mixture `p(z) = Σ_k π_k N(z | μ_k, Σ_k)` in `dim` dimensions.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Gmm {
+    /// Dimension of the modelled variable.
+    pub dim: usize,
+    /// Priors `π_k`, summing to one.
+    pub priors: Vec<f64>,
+    /// Means `μ_k`, each of length `dim`.
+    pub means: Vec<Vec<f64>>,
+    /// Covariances `Σ_k`, each row-major `dim × dim`.
+    pub covariances: Vec<Vec<f64>>,
+}
+
+/// Settings of the EM algorithm.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EmConfig {
+    /// Maximum number of EM iterations.
+    pub max_iter: usize,
+    /// Stop when the mean per-sample log-likelihood improves by less than this.
+    pub tol: f64,
+    /// Added to the diagonal of every covariance (same role as scikit-learn's `reg_covar`).
+    pub reg_covar: f64,
+    /// Seed of the k-means++ initialisation.
+    pub seed: u64,
+    /// Number of Lloyd iterations after the k-means++ seeding.
+    pub kmeans_iter: usize,
+}
+
+impl Default for EmConfig {
+    fn default() -> Self {
+        Self { max_iter: 200, tol: 1e-6, reg_covar: 1e-6, seed: 0, kmeans_iter: 10 }
+    }
+}
+
+impl EmConfig {
+    /// Rejects NaN and out-of-range settings.
+    pub fn validate(&self) -> Result<()> {
+        if self.max_iter == 0 {
+            return Err(invalid("max_iter", "must be at least 1"));
+        }
+        if !(self.tol >= 0.0) || !self.tol.is_finite() {
+            return Err(invalid("tol", format!("must be finite and >= 0, got {}", self.tol)));
+        }
+        if !(self.reg_covar >= 0.0) || !self.reg_covar.is_finite() {
+            return Err(invalid("reg_covar", format!("must be finite and >= 0, got {}", self.reg_covar)));
+        }
+        Ok(())
+    }
+}
+
+/// Result of one EM run.
+#[derive(Debug, Clone)]
+pub struct GmmFit {
+    /// The learned mixture.
+    pub gmm: Gmm,
+    /// Total log-likelihood of the data under `gmm`.
+    pub log_likelihood: f64,
+    /// EM iterations run.
+    pub iterations: usize,
+    /// Whether the tolerance was reached before `max_iter`.
+    pub converged: bool,
+    /// Bayesian information criterion `−2 ln L + p ln n`.
+    pub bic: f64,
+}
+
+/// Result of BIC model selection over `K = 1..=k_max`.
+#[derive(Debug, Clone)]
+pub struct BicSelection {
+    /// The fit with the lowest BIC.
+    pub best: GmmFit,
+    /// `(K, BIC)` for every K tried.
+    pub scores: Vec<(usize, f64)>,
+}
+
+/// Precomputed Cholesky factors and normalisers of a mixture, for fast density evaluation.
+#[derive(Debug, Clone)]
+pub(crate) struct Factors {
+    pub(crate) chol: Vec<Vec<f64>>,
+    /// `−½ ln|Σ_k| − d/2 ln 2π`.
+    pub(crate) log_norm: Vec<f64>,
+}
+
+impl Gmm {
+    /// Number of components.
+    pub fn n_components(&self) -> usize {
+        self.priors.len()
+    }
+
+    /// Number of free parameters (priors, means, full covariances).
+    pub fn n_parameters(&self) -> usize {
+        let k = self.n_components();
+        let d = self.dim;
+        (k - 1) + k * d + k * d * (d + 1) / 2
+    }
+
+    /// Checks shapes, finiteness, priors and positive-definiteness.
+    pub fn validate(&self) -> Result<()> {
+        let k = self.priors.len();
+        if k == 0 {
+            return Err(invalid("gmm", "has no components"));
+        }
+        if self.dim == 0 {
+            return Err(invalid("gmm.dim", "must be at least 1"));
+        }
+        if self.means.len() != k || self.covariances.len() != k {
+            return Err(MotionError::DimensionMismatch {
+                what: "gmm: number of means/covariances vs priors".into(),
+                expected: k,
+                got: self.means.len().min(self.covariances.len()),
+            });
+        }
+        check_finite("gmm.priors", &self.priors)?;
+        if self.priors.iter().any(|p| *p < 0.0) || (self.priors.iter().sum::<f64>() - 1.0).abs() > 1e-6 {
+            return Err(invalid("gmm.priors", "must be non-negative and sum to 1"));
+        }
+        for c in 0..k {
+            crate::error::check_dim(&format!("gmm.means[{c}]"), self.dim, self.means[c].len())?;
+            crate::error::check_dim(&format!("gmm.covariances[{c}]"), self.dim * self.dim, self.covariances[c].len())?;
+            check_finite(&format!("gmm.means[{c}]"), &self.means[c])?;
+            check_finite(&format!("gmm.covariances[{c}]"), &self.covariances[c])?;
+        }
+        self.factors("gmm validation").map(|_| ())
+    }
+
+    pub(crate) fn factors(&self, context: &str) -> Result<Factors> {
+        let d = self.dim;
+        let mut chol = Vec::with_capacity(self.n_components());
+        let mut log_norm = Vec::with_capacity(self.n_components());
+        for (c, cov) in self.covariances.iter().enumerate() {
+            let mut l = vec![0.0; d * d];
+            if !cholesky(cov, d, &mut l) {
+                return Err(MotionError::SingularCovariance { component: c, context: context.to_string() });
+            }
+            log_norm.push(-0.5 * chol_logdet(&l, d) - 0.5 * d as f64 * LN_2PI);
+            chol.push(l);
+        }
+        Ok(Factors { chol, log_norm })
+    }
+
+    /// `ln N(z | μ_k, Σ_k)` for every sample and component, row-major `n × K`.
+    pub fn component_log_pdfs(&self, data: &[f64]) -> Result<Vec<f64>> {
+        let f = self.factors("density evaluation")?;
+        let d = self.dim;
+        let n = data.len() / d;
+        let k = self.n_components();
+        let mut out = vec![0.0; n * k];
+        let mut z = vec![0.0; d];
+        for i in 0..n {
+            let x = &data[i * d..(i + 1) * d];
+            for c in 0..k {
+                out[i * k + c] = log_pdf_with(&f, c, &self.means[c], x, &mut z);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Total log-likelihood of `data` (row-major, `dim` columns).
+    pub fn log_likelihood(&self, data: &[f64]) -> Result<f64> {
+        let k = self.n_components();
+        let lp = self.component_log_pdfs(data)?;
+        let mut row = vec![0.0; k];
+        let mut ll = 0.0;
+        for chunk in lp.chunks(k) {
+            for c in 0..k {
+                row[c] = self.priors[c].ln() + chunk[c];
+            }
+            ll += logsumexp(&row);
+        }
+        Ok(ll)
+    }
+
+    /// Fits a `k`-component mixture by EM from a k-means++ initialisation.
+    pub fn fit(data: &[f64], dim: usize, k: usize, cfg: &EmConfig) -> Result<GmmFit> {
+        check_data(data, dim, k)?;
+        cfg.validate()?;
+        let init = kmeans_init(data, dim, k, cfg)?;
+        em(data, dim, init, cfg)
+    }
+
+    /// Runs EM starting from `init` (warm start, e.g. for incremental re-training).
+    pub fn fit_from(data: &[f64], init: &Gmm, cfg: &EmConfig) -> Result<GmmFit> {
+        check_data(data, init.dim, init.n_components())?;
+        cfg.validate()?;
+        init.validate()?;
+        em(data, init.dim, init.clone(), cfg)
+    }
+
+    /// Fits `K = 1..=k_max` and keeps the one with the lowest BIC.
+    pub fn fit_bic(data: &[f64], dim: usize, k_max: usize, cfg: &EmConfig) -> Result<BicSelection> {
+        if k_max == 0 {
+            return Err(invalid("k_max", "must be at least 1"));
+        }
+        let mut best: Option<GmmFit> = None;
+        let mut scores = Vec::with_capacity(k_max);
+        let n = data.len() / dim.max(1);
+        for k in 1..=k_max.min(n) {
+            let fit = Self::fit(data, dim, k, cfg)?;
+            scores.push((k, fit.bic));
+            if best.as_ref().is_none_or(|b| fit.bic < b.bic) {
+                best = Some(fit);
+            }
+        }
+        let best = best.ok_or_else(|| invalid("k_max", "no model could be fitted"))?;
+        Ok(BicSelection { best, scores })
+    }
+}
+
+#[inline]
+pub(crate) fn log_pdf_with(f: &Factors, c: usize, mean: &[f64], x: &[f64], z: &mut [f64]) -> f64 {
+    let d = mean.len();
+    for j in 0..d {
+        z[j] = x[j] - mean[j];
+    }
+    solve_lower(&f.chol[c], d, &mut z[..d]);
+    let m: f64 = z[..d].iter().map(|v| v * v).sum();
+    f.log_norm[c] - 0.5 * m
+}
+
+fn check_data(data: &[f64], dim: usize, k: usize) -> Result<()> {
+    if dim == 0 {
+        return Err(invalid("dim", "must be at least 1"));
+    }
+    if data.len() % dim != 0 {
+        return Err(MotionError::DimensionMismatch {
+            what: "training data length is not a multiple of the dimension".into(),
+            expected: dim * (data.len() / dim + 1),
+            got: data.len(),
+        });
+    }
+    if k == 0 {
+        return Err(invalid("components", "must be at least 1"));
+    }
+    let n = data.len() / dim;
+    if n < k.max(2) {
+        return Err(MotionError::TooFewSamples { what: format!("GMM with {k} components"), needed: k.max(2), got: n });
+    }
+    check_finite("training data", data)
+}
+
+/// k-means++ seeding followed by a few Lloyd iterations; the initial mixture has the cluster
+/// proportions, means and covariances.
+fn kmeans_init(data: &[f64], d: usize, k: usize, cfg: &EmConfig) -> Result<Gmm> {
+    let n = data.len() / d;
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
+    let row = |i: usize| &data[i * d..(i + 1) * d];
+    let dist2 = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
+    let mut centers: Vec<Vec<f64>> = Vec::with_capacity(k);
+    centers.push(row(rng.random_range(0..n)).to_vec());
+    let mut best_d2: Vec<f64> = (0..n).map(|i| dist2(row(i), &centers[0])).collect();
+    while centers.len() < k {
+        let total: f64 = best_d2.iter().sum();
+        let next = if total > 0.0 {
+            let mut r = rng.random::<f64>() * total;
+            let mut chosen = n - 1;
+            for (i, w) in best_d2.iter().enumerate() {
+                if r < *w {
+                    chosen = i;
+                    break;
+                }
+                r -= w;
+            }
+            chosen
+        } else {
+            rng.random_range(0..n)
+        };
+        centers.push(row(next).to_vec());
+        let c = centers.len() - 1;
+        for i in 0..n {
+            best_d2[i] = best_d2[i].min(dist2(row(i), &centers[c]));
+        }
+    }
+    let mut assign = vec![0usize; n];
+    for _ in 0..cfg.kmeans_iter.max(1) {
+        let mut changed = false;
+        for i in 0..n {
+            let (mut bc, mut bd) = (0, f64::INFINITY);
+            for (c, ctr) in centers.iter().enumerate() {
+                let dd = dist2(row(i), ctr);
+                if dd < bd {
+                    bd = dd;
+                    bc = c;
+                }
+            }
+            if assign[i] != bc {
+                assign[i] = bc;
+                changed = true;
+            }
+        }
+        let mut sums = vec![vec![0.0; d]; k];
+        let mut counts = vec![0usize; k];
+        for i in 0..n {
+            counts[assign[i]] += 1;
+            for j in 0..d {
+                sums[assign[i]][j] += data[i * d + j];
+            }
+        }
+        for c in 0..k {
+            if counts[c] > 0 {
+                for j in 0..d {
+                    centers[c][j] = sums[c][j] / counts[c] as f64;
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    // Hard responsibilities -> one M-step gives the starting mixture.
+    let mut resp = vec![0.0; n * k];
+    for i in 0..n {
+        resp[i * k + assign[i]] = 1.0;
+    }
+    Ok(m_step(data, d, k, &resp, cfg.reg_covar))
+}
+
+/// M-step from responsibilities `resp` (row-major `n × k`). Components with (almost) no mass get
+/// the data covariance so that they stay well defined.
+fn m_step(data: &[f64], d: usize, k: usize, resp: &[f64], reg: f64) -> Gmm {
+    let n = data.len() / d;
+    let mut nk = vec![0.0; k];
+    let mut means = vec![vec![0.0; d]; k];
+    for i in 0..n {
+        let x = &data[i * d..(i + 1) * d];
+        for c in 0..k {
+            let r = resp[i * k + c];
+            nk[c] += r;
+            for j in 0..d {
+                means[c][j] += r * x[j];
+            }
+        }
+    }
+    // Global mean/covariance as a fallback for empty components.
+    let mut gmean = vec![0.0; d];
+    for i in 0..n {
+        for j in 0..d {
+            gmean[j] += data[i * d + j] / n as f64;
+        }
+    }
+    let mut covs = vec![vec![0.0; d * d]; k];
+    let tiny = 10.0 * f64::EPSILON;
+    for c in 0..k {
+        if nk[c] > tiny {
+            for j in 0..d {
+                means[c][j] /= nk[c];
+            }
+        } else {
+            means[c].clone_from(&gmean);
+        }
+    }
+    let mut diff = vec![0.0; d];
+    for i in 0..n {
+        let x = &data[i * d..(i + 1) * d];
+        for c in 0..k {
+            let r = resp[i * k + c];
+            if r == 0.0 {
+                continue;
+            }
+            for j in 0..d {
+                diff[j] = x[j] - means[c][j];
+            }
+            let cov = &mut covs[c];
+            for a in 0..d {
+                let ra = r * diff[a];
+                for b in 0..=a {
+                    cov[a * d + b] += ra * diff[b];
+                }
+            }
+        }
+    }
+    let mut gcov = vec![0.0; d * d];
+    for i in 0..n {
+        for a in 0..d {
+            for b in 0..d {
+                gcov[a * d + b] += (data[i * d + a] - gmean[a]) * (data[i * d + b] - gmean[b]) / n as f64;
+            }
+        }
+    }
+    for c in 0..k {
+        let cov = &mut covs[c];
+        if nk[c] > tiny {
+            for a in 0..d {
+                for b in 0..=a {
+                    cov[a * d + b] /= nk[c];
+                }
+            }
+        } else {
+            cov.clone_from(&gcov);
+        }
+        for a in 0..d {
+            for b in 0..a {
+                cov[b * d + a] = cov[a * d + b];
+            }
+            cov[a * d + a] += reg;
+        }
+    }
+    let total: f64 = nk.iter().sum();
+    let priors = nk.iter().map(|v| (v / total).max(f64::MIN_POSITIVE)).collect::<Vec<_>>();
+    let s: f64 = priors.iter().sum();
+    Gmm { dim: d, priors: priors.iter().map(|p| p / s).collect(), means, covariances: covs }
+}
+
+fn em(data: &[f64], d: usize, mut gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
+    let n = data.len() / d;
+    let k = gmm.n_components();
+    let mut resp = vec![0.0; n * k];
+    let mut z = vec![0.0; d];
+    let mut prev = f64::NEG_INFINITY;
+    let mut converged = false;
+    let mut iterations = 0;
+    let mut ll = f64::NEG_INFINITY;
+    for it in 0..cfg.max_iter {
+        iterations = it + 1;
+        let f = gmm.factors("EM")?;
+        let log_priors: Vec<f64> = gmm.priors.iter().map(|p| p.ln()).collect();
+        ll = 0.0;
+        for i in 0..n {
+            let x = &data[i * d..(i + 1) * d];
+            let row = &mut resp[i * k..(i + 1) * k];
+            for c in 0..k {
+                row[c] = log_priors[c] + log_pdf_with(&f, c, &gmm.means[c], x, &mut z);
+            }
+            let lse = logsumexp(row);
+            ll += lse;
+            for v in row.iter_mut() {
+                *v = (*v - lse).exp();
+            }
+        }
+        let mean_ll = ll / n as f64;
+        if !mean_ll.is_finite() {
+            return Err(invalid("training data", "log-likelihood is not finite (degenerate data?)"));
+        }
+        if (mean_ll - prev).abs() < cfg.tol {
+            converged = true;
+            break;
+        }
+        prev = mean_ll;
+        gmm = m_step(data, d, k, &resp, cfg.reg_covar);
+    }
+    if !converged {
+        // `ll` belongs to the parameters before the last M-step; report the final ones.
+        ll = gmm.log_likelihood(data)?;
+    }
+    let bic = -2.0 * ll + gmm.n_parameters() as f64 * (n as f64).ln();
+    Ok(GmmFit { gmm, log_likelihood: ll, iterations, converged, bic })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_blobs() -> Vec<f64> {
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let normal = rand_distr::Normal::new(0.0, 0.3).expect("normal");
+        let mut v = Vec::new();
+        for i in 0..400 {
+            let (cx, cy) = if i % 2 == 0 { (-5.0, 0.0) } else { (5.0, 2.0) };
+            v.push(cx + rng.sample(normal));
+            v.push(cy + 0.5 * rng.sample(normal));
+        }
+        v
+    }
+
+    #[test]
+    fn em_finds_two_blobs_and_bic_prefers_two() {
+        let data = two_blobs();
+        let sel = Gmm::fit_bic(&data, 2, 5, &EmConfig::default()).expect("fit");
+        assert_eq!(sel.best.gmm.n_components(), 2, "scores {:?}", sel.scores);
+        let mut xs: Vec<f64> = sel.best.gmm.means.iter().map(|m| m[0]).collect();
+        xs.sort_by(f64::total_cmp);
+        assert!((xs[0] + 5.0).abs() < 0.1 && (xs[1] - 5.0).abs() < 0.1, "{xs:?}");
+        for p in &sel.best.gmm.priors {
+            assert!((p - 0.5).abs() < 0.02, "{p}");
+        }
+        let c = &sel.best.gmm.covariances[0];
+        assert!((c[0] - 0.09).abs() < 0.02, "{c:?}");
+    }
+
+    #[test]
+    fn em_log_likelihood_never_decreases() {
+        let data = two_blobs();
+        let mut prev = f64::NEG_INFINITY;
+        let init = kmeans_init(&data, 2, 3, &EmConfig::default()).expect("init");
+        let mut g = init;
+        for _ in 0..10 {
+            let cfg = EmConfig { max_iter: 1, ..EmConfig::default() };
+            let fit = Gmm::fit_from(&data, &g, &cfg).expect("em");
+            let ll = fit.gmm.log_likelihood(&data).expect("ll");
+            assert!(ll >= prev - 1e-9, "{ll} < {prev}");
+            prev = ll;
+            g = fit.gmm;
+        }
+    }
+
+    #[test]
+    fn bad_inputs_are_rejected() {
+        assert!(matches!(Gmm::fit(&[1.0, f64::NAN, 2.0, 3.0], 2, 1, &EmConfig::default()), Err(MotionError::NotFinite { .. })));
+        assert!(matches!(Gmm::fit(&[1.0, 2.0, 3.0], 2, 1, &EmConfig::default()), Err(MotionError::DimensionMismatch { .. })));
+        assert!(matches!(Gmm::fit(&[1.0, 2.0], 2, 1, &EmConfig::default()), Err(MotionError::TooFewSamples { .. })));
+        // Identical points and no regularisation: covariance is singular.
+        let cfg = EmConfig { reg_covar: 0.0, ..EmConfig::default() };
+        let r = Gmm::fit(&[1.0, 1.0, 1.0, 1.0, 1.0, 1.0], 2, 1, &cfg);
+        assert!(matches!(r, Err(MotionError::SingularCovariance { .. })), "{r:?}");
+        let g = Gmm { dim: 2, priors: vec![1.0], means: vec![vec![0.0, 0.0]], covariances: vec![vec![1.0, 1.0, 1.0, 1.0]] };
+        assert!(matches!(g.validate(), Err(MotionError::SingularCovariance { component: 0, .. })));
+    }
+}
