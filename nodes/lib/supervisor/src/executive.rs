@@ -587,7 +587,10 @@ impl Supervisor {
             let mut best: Option<&Cand> = None;
             let mut best_score = f64::NEG_INFINITY;
             let mut wants_central = false;
-            for c in cands.iter().filter(|c| c.arm.is_none_or(|x| x == a) && !taken.contains(&c.node)) {
+            for c in cands
+                .iter()
+                .filter(|c| c.arm.is_none_or(|x| x == a) && !taken.contains(&c.node) && self.wm.get(c.node).is_some())
+            {
                 if c.central && self.central.is_some_and(|h| h != a) {
                     wants_central = true;
                     continue;
