@@ -1,0 +1,76 @@
+//! Damped least-squares pseudo-inverse and null-space projector for 7-column Jacobians.
+//!
+//! Allocation-free: every size is a compile-time constant.
+
+use crate::model::{Jacobian, JacobianPinv, JointMatrix, PositionJacobian, PositionJacobianPinv, DOF};
+use nalgebra::{Matrix3, Matrix6, SMatrix};
+
+/// Damped pseudo-inverse of a 6×7 Jacobian: `J† = Jᵀ (J Jᵀ + λ² I)⁻¹`, λ = `damping`.
+///
+/// Why this form: the 7-DoF arm is redundant, so `J Jᵀ` is only 6×6 and a Cholesky solve of
+/// `J Jᵀ + λ² I` is the cheapest exact way to get the minimum-norm solution. With λ > 0 the
+/// matrix is positive definite and the solve always succeeds; near singularities the result
+/// trades accuracy for bounded joint rates (Nakamura/Wampler damped least squares).
+///
+/// `damping` = 0 gives the plain Moore–Penrose pseudo-inverse. If `J` is then rank deficient
+/// (Cholesky fails), the pseudo-inverse is computed from the eigen-decomposition of `J Jᵀ`,
+/// treating eigenvalues below `6 · 10 · ε · max eigenvalue` as zero; since `J Jᵀ` squares the
+/// singular values, that ignores directions with σ below about 4·10⁻⁷ σ_max.
+///
+/// `damping` must be finite and ≥ 0 (units of J's entries; the position rows are m/rad, so mixing
+/// rows makes λ a compromise); a NaN anywhere gives NaN out.
+pub fn damped_pseudo_inverse(j: &Jacobian, damping: f64) -> JacobianPinv {
+    let mut a: Matrix6<f64> = j * j.transpose();
+    for i in 0..6 {
+        a[(i, i)] += damping * damping;
+    }
+    match a.cholesky() {
+        Some(ch) => ch.solve(j).transpose(),
+        None => {
+            let eig = a.symmetric_eigen();
+            let inv = pinv_from_eigen(eig.eigenvalues.as_slice(), 6);
+            let a_pinv = eig.eigenvectors * Matrix6::from_diagonal(&inv.fixed_rows::<6>(0).into_owned())
+                * eig.eigenvectors.transpose();
+            j.transpose() * a_pinv
+        }
+    }
+}
+
+/// Damped pseudo-inverse of a 3×7 position Jacobian (link-point tasks): `Jᵀ (J Jᵀ + λ² I)⁻¹`,
+/// with the same rules as [`damped_pseudo_inverse`]. λ is in m/rad.
+pub fn damped_pseudo_inverse_3(j: &PositionJacobian, damping: f64) -> PositionJacobianPinv {
+    let mut a: Matrix3<f64> = j * j.transpose();
+    for i in 0..3 {
+        a[(i, i)] += damping * damping;
+    }
+    match a.cholesky() {
+        Some(ch) => ch.solve(j).transpose(),
+        None => {
+            let eig = a.symmetric_eigen();
+            let inv = pinv_from_eigen(eig.eigenvalues.as_slice(), 3);
+            let a_pinv = eig.eigenvectors * Matrix3::from_diagonal(&inv.fixed_rows::<3>(0).into_owned())
+                * eig.eigenvectors.transpose();
+            j.transpose() * a_pinv
+        }
+    }
+}
+
+/// Reciprocal eigenvalues with the small ones zeroed (first `n` entries used).
+fn pinv_from_eigen(eigenvalues: &[f64], n: usize) -> nalgebra::SVector<f64, 6> {
+    let max = eigenvalues.iter().fold(0.0_f64, |m, &e| m.max(e.abs()));
+    let tol = n as f64 * 10.0 * f64::EPSILON * max;
+    let mut inv = nalgebra::SVector::<f64, 6>::zeros();
+    for (i, &e) in eigenvalues.iter().enumerate().take(n) {
+        if e > tol {
+            inv[i] = 1.0 / e;
+        }
+    }
+    inv
+}
+
+/// Null-space projector `N = I − J† J` (7×7) for a Jacobian with any number of rows `R` and its
+/// (damped) pseudo-inverse. Joint rates `N q̇₀` do not disturb the task of `J` (exactly so only
+/// for an undamped `J†`; with damping, to first order in λ²).
+pub fn null_space_projector<const R: usize>(j: &SMatrix<f64, R, DOF>, j_pinv: &SMatrix<f64, DOF, R>) -> JointMatrix {
+    JointMatrix::identity() - j_pinv * j
+}
