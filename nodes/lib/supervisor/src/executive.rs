@@ -77,7 +77,7 @@ pub enum Decision {
 #[derive(Debug, Clone, PartialEq)]
 enum Current {
     Idle,
-    Running { node: NodeId, label: String, central: bool },
+    Running { node: NodeId, label: String },
     Waiting { node: NodeId },
 }
 
@@ -520,10 +520,13 @@ impl Supervisor {
             if !self.task_reported {
                 self.task_reported = true;
                 self.central = None;
-                for s in &mut self.slots {
-                    if matches!(s.current, Current::Waiting { .. }) {
-                        s.current = Current::Idle;
+                for a in 0..self.slots.len() {
+                    if let Current::Running { label, .. } = &self.slots[a].current {
+                        out.push(Decision::Stop { arm: self.arm_name(a), label: label.clone(), reason: "task accomplished".into() });
                     }
+                }
+                for s in &mut self.slots {
+                    s.current = Current::Idle;
                 }
                 out.push(Decision::TaskAccomplished { task: self.task.to_string() });
             }
@@ -618,14 +621,16 @@ impl Supervisor {
         let arm = self.arm_name(a);
         match choice {
             Some((node, false, central)) => {
+                if central {
+                    // Granted (or kept) here; `decide` never offers a central action to an arm
+                    // while another arm holds the area.
+                    self.central = Some(a);
+                    self.slots[a].central_request_s = None;
+                }
                 if let Current::Running { node: r, .. } = self.slots[a].current
                     && r == node
                 {
                     return;
-                }
-                if central {
-                    self.central = Some(a);
-                    self.slots[a].central_request_s = None;
                 }
                 let Some(n) = self.wm.get(node) else { return };
                 let kind = match n.kind {
@@ -644,7 +649,7 @@ impl Supervisor {
                 self.wm.commit_groups(node);
                 let id = self.next_id;
                 self.next_id = self.next_id.wrapping_add(1).max(1);
-                self.slots[a].current = Current::Running { node, label: label.clone(), central };
+                self.slots[a].current = Current::Running { node, label: label.clone() };
                 out.push(Decision::Action { id, arm, label, kind, subtask, releaser, emphasis });
             }
             Some((node, true, _)) => {
