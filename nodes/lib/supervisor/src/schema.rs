@@ -652,7 +652,10 @@ impl Parser {
             && a == "true"
             && *self.peek2() != Tok::Dot
         {
-            self.next();
+            let (_, pos) = self.next();
+            if self.peek().0 == Tok::Amp {
+                return self.err(pos, "'true' cannot be combined with other literals".into());
+            }
             return Ok(Cond::truth());
         }
         let mut literals = vec![self.literal()?];
