@@ -12,10 +12,13 @@ use nalgebra::{Matrix3, Matrix6, SMatrix};
 /// matrix is positive definite and the solve always succeeds; near singularities the result
 /// trades accuracy for bounded joint rates (Nakamura/Wampler damped least squares).
 ///
-/// `damping` = 0 gives the plain Moore–Penrose pseudo-inverse. If `J` is then rank deficient
-/// (Cholesky fails), the pseudo-inverse is computed from the eigen-decomposition of `J Jᵀ`,
-/// treating eigenvalues below `6 · 10 · ε · max eigenvalue` as zero; since `J Jᵀ` squares the
-/// singular values, that ignores directions with σ below about 4·10⁻⁷ σ_max.
+/// `damping` = 0 gives the plain Moore–Penrose pseudo-inverse. When λ² does not dominate the
+/// rounding in `J Jᵀ` (λ = 0, or λ² below about 10⁻¹¹ of the largest diagonal entry of `J Jᵀ`)
+/// or Cholesky fails, the result comes from the eigen-decomposition of `J Jᵀ + λ² I` instead,
+/// treating eigenvalues below `6 · 10 ε · max eigenvalue` as zero; since `J Jᵀ` squares the
+/// singular values, that ignores directions with σ below about 4·10⁻⁷ σ_max, so an exactly
+/// singular `J` (stretched arm) gets the rank-deficient pseudo-inverse, not rounding noise
+/// blown up. Both paths are allocation-free; the eigen path costs a few times more.
 ///
 /// `damping` must be finite and ≥ 0 (units of J's entries; the position rows are m/rad, so mixing
 /// rows makes λ a compromise); a NaN anywhere gives NaN out.
@@ -24,7 +27,8 @@ pub fn damped_pseudo_inverse(j: &Jacobian, damping: f64) -> JacobianPinv {
     for i in 0..6 {
         a[(i, i)] += damping * damping;
     }
-    match a.cholesky() {
+    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) { a.cholesky() } else { None };
+    match cholesky {
         Some(ch) => ch.solve(j).transpose(),
         None => {
             let eig = a.symmetric_eigen();
@@ -43,7 +47,8 @@ pub fn damped_pseudo_inverse_3(j: &PositionJacobian, damping: f64) -> PositionJa
     for i in 0..3 {
         a[(i, i)] += damping * damping;
     }
-    match a.cholesky() {
+    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) { a.cholesky() } else { None };
+    match cholesky {
         Some(ch) => ch.solve(j).transpose(),
         None => {
             let eig = a.symmetric_eigen();
@@ -55,10 +60,23 @@ pub fn damped_pseudo_inverse_3(j: &PositionJacobian, damping: f64) -> PositionJa
     }
 }
 
+/// Relative threshold below which an eigenvalue of `J Jᵀ` (a squared singular value) counts as
+/// zero: rounding in forming `J Jᵀ` is of order ε·max eigenvalue.
+const RANK_TOL: f64 = 10.0 * f64::EPSILON;
+
+/// `true` when λ² is well above the rounding in `J Jᵀ`, so `J Jᵀ + λ² I` is safely positive
+/// definite and Cholesky is accurate. Otherwise (λ = 0 or tiny) the matrix may be singular up
+/// to rounding, where a Cholesky factorisation can still "succeed" on a noise-sized pivot and
+/// return huge entries; the eigen path decides the rank instead.
+fn damping_dominates_rounding(damping: f64, a_diag: &[f64]) -> bool {
+    let scale = a_diag.iter().fold(0.0_f64, |m, &d| m.max(d));
+    damping * damping > 1e3 * a_diag.len() as f64 * RANK_TOL * scale
+}
+
 /// Reciprocal eigenvalues with the small ones zeroed (first `n` entries used).
 fn pinv_from_eigen(eigenvalues: &[f64], n: usize) -> nalgebra::SVector<f64, 6> {
     let max = eigenvalues.iter().fold(0.0_f64, |m, &e| m.max(e.abs()));
-    let tol = n as f64 * 10.0 * f64::EPSILON * max;
+    let tol = n as f64 * RANK_TOL * max;
     let mut inv = nalgebra::SVector::<f64, 6>::zeros();
     for (i, &e) in eigenvalues.iter().enumerate().take(n) {
         if e > tol {
