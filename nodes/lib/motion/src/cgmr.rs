@@ -72,7 +72,7 @@ pub struct CgmrConfig {
 
 impl Default for CgmrConfig {
     fn default() -> Self {
-        Self { alpha: 0.1, ball_fraction: 0.15, gamma: 20.0, t_max_factor: 1.5, p: 2.0, c_min: 0.1 }
+        Self { alpha: 0.1, ball_fraction: 0.15, gamma: 20.0, t_max_factor: 1.5, p: 2.0, c_min: 1.0 }
     }
 }
 

@@ -10,7 +10,7 @@
 //! let demo = Demonstration::new(2, t, pos, None).unwrap();
 //! let model = Cgmr::fit(&[demo], Components::Fixed(3), &EmConfig::default(), 1, &CgmrConfig::default()).unwrap();
 //! let mut runner = model.runner(None).unwrap();
-//! let tr = rollout(&mut runner, &[1.0, 1.0], &RolloutConfig { dt: 0.002, max_steps: 10_000, tol: 1e-3 }).unwrap();
+//! let tr = rollout(&mut runner, &[1.0, 1.0], &RolloutConfig { dt: 0.002, max_steps: 20_000, tol: 1e-3 }).unwrap();
 //! assert!(tr.reached);
 //! ```
 
@@ -23,6 +23,9 @@ pub mod dtw;
 pub mod error;
 pub mod gmm;
 pub mod gmr;
+pub mod hmm;
+pub mod model;
+pub mod csv_io;
 mod linalg;
 
 pub use cgmr::{Cgmr, CgmrConfig, CgmrRunner, Components, Region, mu1, stabilizing_gains};

@@ -1,0 +1,264 @@
+//! CSV files of `cowork learn`: demonstrations (`t,x0,…,x{n−1}[,v0,…,v{n−1}]`), query points
+//! (`x0,…`), rollouts (`t,x0,…,v0,…`), velocities (`v0,…`) and pose trajectories
+//! (`t,px,py,pz,qw,qx,qy,qz`, position in m, unit quaternion). Errors name the file, the 1-based
+//! row (the header is row 1) and the column.
+
+use std::path::Path;
+
+use nalgebra::{Quaternion, Rotation3, UnitQuaternion, Vector3};
+
+use crate::demo::Demonstration;
+use crate::dhb::Poses;
+use crate::ds::Trajectory;
+use crate::error::{MotionError, Result};
+
+fn csv_err(file: &Path, row: usize, column: impl Into<String>, reason: impl Into<String>) -> MotionError {
+    MotionError::Csv { file: file.to_path_buf(), row, column: column.into(), reason: reason.into() }
+}
+
+/// A parsed numeric table: header names and rows (all of the header's width).
+#[derive(Debug, Clone)]
+pub struct Table {
+    /// Column names.
+    pub header: Vec<String>,
+    /// Values, one `Vec` per data row.
+    pub rows: Vec<Vec<f64>>,
+}
+
+/// Reads a numeric CSV with a header; every cell must parse as a finite number and every row
+/// must have the header's width.
+pub fn read_table(path: &Path) -> Result<Table> {
+    let file = std::fs::File::open(path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })?;
+    read_table_from(file, path)
+}
+
+/// As [`read_table`] from any reader; `path` is only used in error messages.
+pub fn read_table_from<R: std::io::Read>(reader: R, path: &Path) -> Result<Table> {
+    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).comment(Some(b'#')).trim(csv::Trim::All).from_reader(reader);
+    let header: Vec<String> = rdr.headers().map_err(|e| csv_err(path, 1, "-", e.to_string()))?.iter().map(str::to_string).collect();
+    if header.is_empty() || header.iter().all(String::is_empty) {
+        return Err(csv_err(path, 1, "-", "missing header"));
+    }
+    let mut rows = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| {
+            let row = e.position().map_or(0, |p| p.line() as usize);
+            csv_err(path, row, "-", e.to_string())
+        })?;
+        let row = rec.position().map_or(rows.len() + 2, |p| p.line() as usize);
+        if rec.len() != header.len() {
+            return Err(csv_err(path, row, format!("{}", rec.len().min(header.len()) + 1), format!("row has {} fields, header has {}", rec.len(), header.len())));
+        }
+        let mut vals = Vec::with_capacity(rec.len());
+        for (c, cell) in rec.iter().enumerate() {
+            let v: f64 = cell.parse().map_err(|_| csv_err(path, row, header[c].clone(), format!("`{cell}` is not a number")))?;
+            if !v.is_finite() {
+                return Err(csv_err(path, row, header[c].clone(), format!("`{cell}` is not finite")));
+            }
+            vals.push(v);
+        }
+        rows.push(vals);
+    }
+    Ok(Table { header, rows })
+}
+
+fn expect_columns(path: &Path, header: &[String], names: &[String], offset: usize) -> Result<()> {
+    for (i, n) in names.iter().enumerate() {
+        match header.get(offset + i) {
+            Some(h) if h == n => {}
+            Some(h) => return Err(csv_err(path, 1, format!("{}", offset + i + 1), format!("expected column `{n}`, found `{h}`"))),
+            None => return Err(csv_err(path, 1, format!("{}", offset + i + 1), format!("missing column `{n}`"))),
+        }
+    }
+    Ok(())
+}
+
+/// Reads a demonstration: header `t,x0..x{n−1}` with optional `v0..v{n−1}`; velocities by finite
+/// differences when absent. Needs at least two rows and strictly increasing `t`.
+pub fn read_demonstration(path: &Path) -> Result<Demonstration> {
+    let table = read_table(path)?;
+    let h = &table.header;
+    if h.first().map(String::as_str) != Some("t") {
+        return Err(csv_err(path, 1, "1", "first column must be `t`"));
+    }
+    let n = h.iter().skip(1).take_while(|c| c.starts_with('x')).count();
+    if n == 0 {
+        return Err(csv_err(path, 1, "2", "no position columns `x0..`"));
+    }
+    let xs: Vec<String> = (0..n).map(|i| format!("x{i}")).collect();
+    expect_columns(path, h, &xs, 1)?;
+    let has_v = h.len() > 1 + n;
+    if has_v {
+        let vs: Vec<String> = (0..n).map(|i| format!("v{i}")).collect();
+        expect_columns(path, h, &vs, 1 + n)?;
+        if h.len() != 1 + 2 * n {
+            return Err(csv_err(path, 1, format!("{}", 2 + 2 * n), "unexpected extra column"));
+        }
+    }
+    if table.rows.len() < 2 {
+        return Err(csv_err(path, table.rows.len() + 1, "t", format!("need at least 2 samples, got {}", table.rows.len())));
+    }
+    for (i, w) in table.rows.windows(2).enumerate() {
+        if w[1][0] <= w[0][0] {
+            return Err(csv_err(path, i + 3, "t", "times must increase strictly"));
+        }
+    }
+    let t = table.rows.iter().map(|r| r[0]).collect();
+    let pos = table.rows.iter().flat_map(|r| r[1..1 + n].iter().copied()).collect();
+    let vel = has_v.then(|| table.rows.iter().flat_map(|r| r[1 + n..1 + 2 * n].iter().copied()).collect());
+    Demonstration::new(n, t, pos, vel)
+}
+
+/// Reads query points with header `x0..x{n−1}`; returns `(n, row-major values)`.
+pub fn read_points(path: &Path) -> Result<(usize, Vec<f64>)> {
+    let table = read_table(path)?;
+    let n = table.header.len();
+    let xs: Vec<String> = (0..n).map(|i| format!("x{i}")).collect();
+    expect_columns(path, &table.header, &xs, 0)?;
+    Ok((n, table.rows.into_iter().flatten().collect()))
+}
+
+fn io_err(path: &Path, e: impl std::fmt::Display) -> MotionError {
+    MotionError::Io { file: path.to_path_buf(), source: std::io::Error::other(e.to_string()) }
+}
+
+/// Writes rows with a header, atomically (temporary file + rename) so a crash leaves no half file.
+pub fn write_table(path: &Path, header: &[String], rows: impl Iterator<Item = Vec<f64>>, comments: &[String]) -> Result<()> {
+    let tmp = path.with_extension("tmp-write");
+    {
+        let mut f = std::fs::File::create(&tmp).map_err(|source| MotionError::Io { file: tmp.clone(), source })?;
+        use std::io::Write;
+        for c in comments {
+            writeln!(f, "# {c}").map_err(|source| MotionError::Io { file: tmp.clone(), source })?;
+        }
+        let mut w = csv::Writer::from_writer(f);
+        w.write_record(header).map_err(|e| io_err(path, e))?;
+        for r in rows {
+            w.write_record(r.iter().map(|v| format!("{v:.17e}"))).map_err(|e| io_err(path, e))?;
+        }
+        w.flush().map_err(|source| MotionError::Io { file: tmp.clone(), source })?;
+    }
+    std::fs::rename(&tmp, path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })
+}
+
+/// Writes a rollout as `t,x0..,v0..`.
+pub fn write_trajectory(path: &Path, tr: &Trajectory) -> Result<()> {
+    let n = tr.dim;
+    let mut header = vec!["t".to_string()];
+    header.extend((0..n).map(|i| format!("x{i}")));
+    header.extend((0..n).map(|i| format!("v{i}")));
+    write_table(
+        path,
+        &header,
+        (0..tr.len()).map(|i| {
+            let mut r = vec![tr.t[i]];
+            r.extend_from_slice(tr.position(i));
+            r.extend_from_slice(tr.velocity(i));
+            r
+        }),
+        &[],
+    )
+}
+
+/// Writes velocities `v0..` (row-major, `n` columns).
+pub fn write_velocities(path: &Path, n: usize, v: &[f64]) -> Result<()> {
+    let header: Vec<String> = (0..n).map(|i| format!("v{i}")).collect();
+    write_table(path, &header, v.chunks(n).map(<[f64]>::to_vec), &[])
+}
+
+/// Reads a pose trajectory `t,px,py,pz,qw,qx,qy,qz` (quaternions are normalised; a zero one is
+/// an error).
+pub fn read_poses(path: &Path) -> Result<(Vec<f64>, Poses)> {
+    let table = read_table(path)?;
+    let names: Vec<String> = ["t", "px", "py", "pz", "qw", "qx", "qy", "qz"].iter().map(|s| s.to_string()).collect();
+    expect_columns(path, &table.header, &names, 0)?;
+    if table.header.len() != names.len() {
+        return Err(csv_err(path, 1, "9", "unexpected extra column"));
+    }
+    let mut t = Vec::new();
+    let mut poses = Poses { p: Vec::new(), r: Vec::new() };
+    for (i, r) in table.rows.iter().enumerate() {
+        let q = Quaternion::new(r[4], r[5], r[6], r[7]);
+        if q.norm() < 1e-9 {
+            return Err(csv_err(path, i + 2, "qw", "quaternion has zero norm"));
+        }
+        t.push(r[0]);
+        poses.p.push(Vector3::new(r[1], r[2], r[3]));
+        poses.r.push(UnitQuaternion::from_quaternion(q).to_rotation_matrix());
+    }
+    Ok((t, poses))
+}
+
+/// Writes a pose trajectory in the format of [`read_poses`].
+pub fn write_poses(path: &Path, t: &[f64], poses: &Poses) -> Result<()> {
+    let header: Vec<String> = ["t", "px", "py", "pz", "qw", "qx", "qy", "qz"].iter().map(|s| s.to_string()).collect();
+    write_table(
+        path,
+        &header,
+        poses.p.iter().zip(&poses.r).enumerate().map(|(i, (p, r))| {
+            let q = UnitQuaternion::from_rotation_matrix(r);
+            vec![t.get(i).copied().unwrap_or(i as f64), p.x, p.y, p.z, q.w, q.i, q.j, q.k]
+        }),
+        &[],
+    )
+}
+
+/// Rotation from a quaternion `(w, x, y, z)`.
+pub fn rotation_from_wxyz(q: [f64; 4]) -> Rotation3<f64> {
+    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3])).to_rotation_matrix()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, text: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("cowork_motion_csv_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let p = dir.join(name);
+        std::fs::write(&p, text).expect("write");
+        p
+    }
+
+    fn err_text(r: Result<Demonstration>) -> String {
+        match r {
+            Err(e) => e.to_string(),
+            Ok(_) => "no error".into(),
+        }
+    }
+
+    #[test]
+    fn reads_demos_with_and_without_velocities() {
+        let d = read_demonstration(&write("a.csv", "t,x0,x1\n0,0,0\n1,1,2\n2,2,4\n")).expect("demo");
+        assert_eq!(d.dim, 2);
+        assert_eq!(d.velocity(1), &[1.0, 2.0]);
+        let d = read_demonstration(&write("b.csv", "t,x0,v0\n0,0,5\n1,1,6\n")).expect("demo");
+        assert_eq!(d.velocity(0), &[5.0]);
+    }
+
+    #[test]
+    fn bad_files_name_file_row_and_column() {
+        let e = err_text(read_demonstration(&write("nan.csv", "t,x0,x1\n0,0,0\n1,NaN,2\n")));
+        assert!(e.contains("nan.csv") && e.contains("row 3") && e.contains("column x0"), "{e}");
+        let e = err_text(read_demonstration(&write("ragged.csv", "t,x0,x1\n0,0,0\n1,1\n")));
+        assert!(e.contains("ragged.csv") && e.contains("row 3"), "{e}");
+        let e = err_text(read_demonstration(&write("one.csv", "t,x0\n0,0\n")));
+        assert!(e.contains("one.csv") && e.contains("at least 2"), "{e}");
+        let e = err_text(read_demonstration(&write("hdr.csv", "t,x0,y1\n0,0,0\n1,1,1\n")));
+        assert!(e.contains("hdr.csv") && e.contains("row 1"), "{e}");
+        let e = err_text(read_demonstration(&write("time.csv", "t,x0\n0,0\n0,1\n")));
+        assert!(e.contains("row 3") && e.contains("column t"), "{e}");
+        let e = err_text(read_demonstration(&write("word.csv", "t,x0\n0,0\n1,abc\n")));
+        assert!(e.contains("`abc` is not a number"), "{e}");
+    }
+
+    #[test]
+    fn trajectory_round_trip() {
+        let tr = Trajectory { dim: 1, t: vec![0.0, 0.1], pos: vec![1.0, 2.0], vel: vec![0.5, 0.25], reached: false };
+        let p = write("out.csv", "");
+        write_trajectory(&p, &tr).expect("write");
+        let d = read_demonstration(&p).expect("read");
+        assert_eq!(d.pos, tr.pos);
+        assert_eq!(d.vel, tr.vel);
+    }
+}

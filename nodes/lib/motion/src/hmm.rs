@@ -1,0 +1,563 @@
+//! HMM motion primitives (thesis Algorithm 3, App. A.3.3): left-to-right HMM with Gaussian
+//! outputs learned by Baum–Welch, Viterbi state sequences, a normalised time variable per state,
+//! smooth generation by GMR on time within each state (eq. A.26–A.30). The incremental
+//! refinement of A.3.3 is not provided yet (its weighted Baum–Welch was not reliable).
+//!
+//! One Gaussian per state (`M = 1` in eq. A.25). Positions are in the unit of the data; time
+//! steps are the demonstrations' mean sampling period.
+
+use serde::{Deserialize, Serialize};
+
+use crate::demo::{Demonstration, common_dim};
+use crate::ds::Trajectory;
+use crate::error::{MotionError, Result, check_dim, check_finite, invalid};
+use crate::linalg::{LN_2PI, chol_logdet, cholesky, solve_lower};
+
+/// Learning settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct HmmConfig {
+    /// Number of hidden states `L`.
+    pub states: usize,
+    /// Baum–Welch iterations (at most).
+    pub max_iter: usize,
+    /// Stop when the mean per-sample log-likelihood improves by less than this.
+    pub tol: f64,
+    /// Added to the covariance diagonals.
+    pub reg_covar: f64,
+    /// Forgetting factor `η` reserved for the incremental update of A.3.3 (validated, unused).
+    pub forgetting: f64,
+}
+
+impl Default for HmmConfig {
+    fn default() -> Self {
+        Self { states: 10, max_iter: 50, tol: 1e-6, reg_covar: 1e-6, forgetting: 0.5 }
+    }
+}
+
+/// One state's parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HmmState {
+    /// Spatial mean `ˢµ`.
+    pub mean: Vec<f64>,
+    /// Spatial covariance `ˢˢΣ`, row-major.
+    pub cov: Vec<f64>,
+    /// Temporal mean `ᵗµ` (≈ 0.5).
+    pub t_mean: f64,
+    /// Temporal variance `ᵗᵗΣ`.
+    pub t_var: f64,
+    /// Cross covariance `ᵗˢΣ` (one value per spatial dimension).
+    pub ts_cov: Vec<f64>,
+}
+
+/// A learned HMM primitive `λ = {π, A, µ, Σ}` plus the temporal terms.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HmmPrimitive {
+    /// Spatial dimension.
+    pub dim: usize,
+    /// Initial state probabilities.
+    pub prior: Vec<f64>,
+    /// Transition matrix, row-major `L × L` (left-to-right).
+    pub trans: Vec<f64>,
+    /// States.
+    pub states: Vec<HmmState>,
+    /// Mean state durations from the Viterbi sequences (samples), used for the absorbing state.
+    pub durations: Vec<f64>,
+    /// Sampling period of the demonstrations (s).
+    pub dt: f64,
+    /// Settings used.
+    pub config: HmmConfig,
+}
+
+struct Emissions {
+    chol: Vec<Vec<f64>>,
+    norm: Vec<f64>,
+}
+
+impl HmmPrimitive {
+    /// State dimension.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+    fn l(&self) -> usize {
+        self.states.len()
+    }
+
+    /// Algorithm 3, learning part (steps 1–5).
+    pub fn fit(demos: &[Demonstration], cfg: &HmmConfig) -> Result<Self> {
+        let n = common_dim(demos)?;
+        let l = cfg.states;
+        if l == 0 {
+            return Err(invalid("states", "must be at least 1"));
+        }
+        if !(cfg.forgetting > 0.0 && cfg.forgetting < 1.0) {
+            return Err(invalid("forgetting", "must be in (0, 1)"));
+        }
+        for (i, d) in demos.iter().enumerate() {
+            if d.len() < 2 * l {
+                return Err(MotionError::TooFewSamples { what: format!("HMM demonstration {i} ({l} states)"), needed: 2 * l, got: d.len() });
+            }
+        }
+        let seqs: Vec<&[f64]> = demos.iter().map(|d| d.pos.as_slice()).collect();
+        let dt = demos.iter().map(|d| d.duration() / (d.len() - 1) as f64).sum::<f64>() / demos.len() as f64;
+        // Step 1 initialisation: equal segments.
+        let mut resp: Vec<Vec<f64>> = seqs
+            .iter()
+            .map(|s| {
+                let t = s.len() / n;
+                let mut g = vec![0.0; t * l];
+                for k in 0..t {
+                    g[k * l + (k * l / t).min(l - 1)] = 1.0;
+                }
+                g
+            })
+            .collect();
+        let mut me = Self {
+            dim: n,
+            prior: (0..l).map(|i| if i == 0 { 1.0 } else { 0.0 }).collect(),
+            trans: vec![0.0; l * l],
+            states: vec![HmmState { mean: vec![0.0; n], cov: vec![0.0; n * n], t_mean: 0.5, t_var: 1.0 / 12.0, ts_cov: vec![0.0; n] }; l],
+            durations: vec![1.0; l],
+            dt,
+            config: cfg.clone(),
+        };
+        let mean_len = seqs.iter().map(|s| s.len() / n).sum::<usize>() as f64 / seqs.len() as f64;
+        let stay = 1.0 - l as f64 / mean_len;
+        for i in 0..l {
+            if i + 1 < l {
+                me.trans[i * l + i] = stay;
+                me.trans[i * l + i + 1] = 1.0 - stay;
+            } else {
+                me.trans[i * l + i] = 1.0;
+            }
+        }
+        me.m_step_emissions(&seqs, &[1.0; 64][..seqs.len().min(64)], &resp)?;
+        // Step 2: Baum–Welch.
+        let weights = vec![1.0; seqs.len()];
+        let mut prev = f64::NEG_INFINITY;
+        for _ in 0..cfg.max_iter {
+            let (ll, r) = me.baum_welch_step(&seqs, &weights)?;
+            resp = r;
+            let mean_ll = ll / seqs.iter().map(|s| s.len() / n).sum::<usize>() as f64;
+            if (mean_ll - prev).abs() < cfg.tol {
+                break;
+            }
+            prev = mean_ll;
+        }
+        drop(resp);
+        me.temporal_terms(&seqs, &weights)?;
+        Ok(me)
+    }
+
+    fn emissions(&self) -> Result<Emissions> {
+        let n = self.dim;
+        let mut chol = Vec::new();
+        let mut norm = Vec::new();
+        for (i, s) in self.states.iter().enumerate() {
+            let mut lc = vec![0.0; n * n];
+            if !cholesky(&s.cov, n, &mut lc) {
+                return Err(MotionError::SingularCovariance { component: i, context: format!("HMM state output {:?}", s.cov) });
+            }
+            norm.push(-0.5 * chol_logdet(&lc, n) - 0.5 * n as f64 * LN_2PI);
+            chol.push(lc);
+        }
+        Ok(Emissions { chol, norm })
+    }
+
+    fn log_b(&self, e: &Emissions, x: &[f64], out: &mut [f64]) {
+        let n = self.dim;
+        let mut z = vec![0.0; n];
+        for (i, s) in self.states.iter().enumerate() {
+            for j in 0..n {
+                z[j] = x[j] - s.mean[j];
+            }
+            solve_lower(&e.chol[i], n, &mut z);
+            out[i] = e.norm[i] - 0.5 * z.iter().map(|v| v * v).sum::<f64>();
+        }
+    }
+
+    /// Scaled forward–backward on emission log-likelihoods `logb` (`T × L`): returns the
+    /// log-likelihood, `γ` (`T × L`) and the expected transition counts (`L × L`).
+    fn forward_backward(&self, logb: &[f64], t_len: usize) -> (f64, Vec<f64>, Vec<f64>) {
+        let l = self.l();
+        let mut b = vec![0.0; t_len * l];
+        let mut ll = 0.0;
+        for t in 0..t_len {
+            let row = &logb[t * l..(t + 1) * l];
+            let m = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            ll += m;
+            for i in 0..l {
+                // The floor keeps a path alive when every reachable state is far from the sample.
+                b[t * l + i] = (row[i] - m).max(-600.0).exp();
+            }
+        }
+        let mut alpha = vec![0.0; t_len * l];
+        let mut scale = vec![0.0; t_len];
+        for t in 0..t_len {
+            for j in 0..l {
+                let p = if t == 0 { self.prior[j] } else { (0..l).map(|i| alpha[(t - 1) * l + i] * self.trans[i * l + j]).sum() };
+                alpha[t * l + j] = p * b[t * l + j];
+            }
+            let mut s: f64 = alpha[t * l..(t + 1) * l].iter().sum::<f64>();
+            if !(s > 1e-300) {
+                // Every reachable state is far from the sample: floor the emissions so that the
+                // path stays alive (only happens on data far from the model).
+                for j in 0..l {
+                    b[t * l + j] = b[t * l + j].max(1e-200);
+                    let p = if t == 0 { self.prior[j] } else { (0..l).map(|i| alpha[(t - 1) * l + i] * self.trans[i * l + j]).sum() };
+                    alpha[t * l + j] = p * b[t * l + j];
+                }
+                s = alpha[t * l..(t + 1) * l].iter().sum::<f64>();
+                if !(s > 1e-300) || !s.is_finite() {
+                    // Still no admissible path: restart the recursion from the emissions.
+                    for j in 0..l {
+                        alpha[t * l + j] = b[t * l + j];
+                    }
+                    s = alpha[t * l..(t + 1) * l].iter().sum::<f64>().max(1e-300);
+                }
+            }
+            scale[t] = s;
+            alpha[t * l..(t + 1) * l].iter_mut().for_each(|v| *v /= s);
+            ll += s.ln();
+        }
+        let mut beta = vec![1.0; t_len * l];
+        for t in (0..t_len - 1).rev() {
+            for i in 0..l {
+                beta[t * l + i] = (0..l).map(|j| self.trans[i * l + j] * b[(t + 1) * l + j] * beta[(t + 1) * l + j]).sum::<f64>();
+            }
+            // γ and ξ are normalised per instant, so β may be scaled freely: keep it summing to 1.
+            let s: f64 = beta[t * l..(t + 1) * l].iter().sum();
+            if s > 0.0 {
+                beta[t * l..(t + 1) * l].iter_mut().for_each(|v| *v /= s);
+            }
+        }
+        let mut gamma = vec![0.0; t_len * l];
+        for t in 0..t_len {
+            let s: f64 = (0..l).map(|i| alpha[t * l + i] * beta[t * l + i]).sum::<f64>().max(1e-300);
+            for i in 0..l {
+                gamma[t * l + i] = alpha[t * l + i] * beta[t * l + i] / s;
+            }
+        }
+        let mut xi = vec![0.0; l * l];
+        for t in 0..t_len.saturating_sub(1) {
+            let mut tmp = vec![0.0; l * l];
+            let mut s = 0.0;
+            for i in 0..l {
+                for j in 0..l {
+                    let v = alpha[t * l + i] * self.trans[i * l + j] * b[(t + 1) * l + j] * beta[(t + 1) * l + j];
+                    tmp[i * l + j] = v;
+                    s += v;
+                }
+            }
+            if s > 0.0 {
+                for (x, v) in xi.iter_mut().zip(&tmp) {
+                    *x += v / s;
+                }
+            }
+        }
+        (ll, gamma, xi)
+    }
+
+    /// One weighted Baum–Welch iteration; returns the log-likelihood before the update and `γ`.
+    fn baum_welch_step(&mut self, seqs: &[&[f64]], weights: &[f64]) -> Result<(f64, Vec<Vec<f64>>)> {
+        let (n, l) = (self.dim, self.l());
+        let e = self.emissions()?;
+        let mut total_ll = 0.0;
+        let mut gammas = Vec::new();
+        let mut prior = vec![0.0; l];
+        let mut num = vec![0.0; l * l];
+        let mut den = vec![0.0; l];
+        for (s, w) in seqs.iter().zip(weights) {
+            let t_len = s.len() / n;
+            let mut logb = vec![0.0; t_len * l];
+            for t in 0..t_len {
+                self.log_b(&e, &s[t * n..(t + 1) * n], &mut logb[t * l..(t + 1) * l]);
+            }
+            let (ll, g, xi) = self.forward_backward(&logb, t_len);
+                total_ll += w * ll;
+            for i in 0..l {
+                prior[i] += w * g[i];
+                for t in 0..t_len - 1 {
+                    den[i] += w * g[t * l + i];
+                }
+                for j in 0..l {
+                    num[i * l + j] += w * xi[i * l + j];
+                }
+            }
+            gammas.push(g);
+        }
+        let ps: f64 = prior.iter().sum();
+        if ps > 0.0 && ps.is_finite() {
+            self.prior = prior.iter().map(|p| p / ps).collect();
+        }
+        for i in 0..l {
+            let rs: f64 = (0..l).map(|j| num[i * l + j]).sum();
+            if den[i] > 0.0 && rs > 0.0 && rs.is_finite() {
+                for j in 0..l {
+                    self.trans[i * l + j] = num[i * l + j] / rs;
+                }
+            }
+        }
+        self.m_step_emissions(seqs, weights, &gammas)?;
+        Ok((total_ll, gammas))
+    }
+
+    fn m_step_emissions(&mut self, seqs: &[&[f64]], weights: &[f64], gammas: &[Vec<f64>]) -> Result<()> {
+        let (n, l) = (self.dim, self.l());
+        for i in 0..l {
+            let mut w_sum = 0.0;
+            let mut mean = vec![0.0; n];
+            for ((s, w), g) in seqs.iter().zip(weights).zip(gammas) {
+                for t in 0..s.len() / n {
+                    let r = w * g[t * l + i];
+                    w_sum += r;
+                    for j in 0..n {
+                        mean[j] += r * s[t * n + j];
+                    }
+                }
+            }
+            if !(w_sum > 1e-12) || !w_sum.is_finite() {
+                continue; // keep the previous parameters of an unvisited state
+            }
+            mean.iter_mut().for_each(|m| *m /= w_sum);
+            let mut cov = vec![0.0; n * n];
+            for ((s, w), g) in seqs.iter().zip(weights).zip(gammas) {
+                for t in 0..s.len() / n {
+                    let r = w * g[t * l + i];
+                    for a in 0..n {
+                        for b in 0..n {
+                            cov[a * n + b] += r * (s[t * n + a] - mean[a]) * (s[t * n + b] - mean[b]);
+                        }
+                    }
+                }
+            }
+            for a in 0..n {
+                for b in 0..n {
+                    cov[a * n + b] /= w_sum;
+                }
+                cov[a * n + a] += self.config.reg_covar;
+            }
+            self.states[i].mean = mean;
+            self.states[i].cov = cov;
+        }
+        Ok(())
+    }
+
+    /// Most likely state sequence (log-space Viterbi).
+    pub fn viterbi(&self, seq: &[f64]) -> Result<Vec<usize>> {
+        let (n, l) = (self.dim, self.l());
+        if seq.len() % n != 0 || seq.is_empty() {
+            return Err(MotionError::DimensionMismatch { what: "HMM sequence length vs dimension".into(), expected: n, got: seq.len() % n });
+        }
+        check_finite("HMM sequence", seq)?;
+        let e = self.emissions()?;
+        let t_len = seq.len() / n;
+        let ln = |p: f64| if p > 0.0 { p.ln() } else { f64::NEG_INFINITY };
+        let mut delta = vec![0.0; l];
+        let mut back = vec![0usize; t_len * l];
+        let mut lb = vec![0.0; l];
+        self.log_b(&e, &seq[..n], &mut lb);
+        for i in 0..l {
+            delta[i] = ln(self.prior[i]) + lb[i];
+        }
+        for t in 1..t_len {
+            self.log_b(&e, &seq[t * n..(t + 1) * n], &mut lb);
+            let mut nd = vec![f64::NEG_INFINITY; l];
+            for j in 0..l {
+                for i in 0..l {
+                    let v = delta[i] + ln(self.trans[i * l + j]);
+                    if v > nd[j] {
+                        nd[j] = v;
+                        back[t * l + j] = i;
+                    }
+                }
+                nd[j] += lb[j];
+            }
+            delta = nd;
+        }
+        let mut q = vec![0usize; t_len];
+        q[t_len - 1] = (0..l).max_by(|a, b| delta[*a].total_cmp(&delta[*b])).unwrap_or(0);
+        for t in (1..t_len).rev() {
+            q[t - 1] = back[t * l + q[t]];
+        }
+        Ok(q)
+    }
+
+    /// Relative time in each run of equal states: `(k + ½)/d` for the k-th of d samples.
+    fn relative_time(q: &[usize]) -> Vec<f64> {
+        let mut out = vec![0.0; q.len()];
+        let mut start = 0;
+        for t in 1..=q.len() {
+            if t == q.len() || q[t] != q[start] {
+                let d = (t - start) as f64;
+                for k in start..t {
+                    out[k] = ((k - start) as f64 + 0.5) / d;
+                }
+                start = t;
+            }
+        }
+        out
+    }
+
+    /// Steps 3–5: Viterbi sequences, relative time, and the temporal/cross covariances.
+    fn temporal_terms(&mut self, seqs: &[&[f64]], weights: &[f64]) -> Result<()> {
+        let (n, l) = (self.dim, self.l());
+        let mut acc = vec![(0.0, 0.0, 0.0, vec![0.0; n], vec![0.0; n]); l]; // w, Σw·t, Σw·t², Σw·s, Σw·t·s
+        let mut runs = vec![(0.0, 0.0); l];
+        for (s, w) in seqs.iter().zip(weights) {
+            let q = self.viterbi(s)?;
+            let to = Self::relative_time(&q);
+            for t in 0..q.len() {
+                let a = &mut acc[q[t]];
+                a.0 += w;
+                a.1 += w * to[t];
+                a.2 += w * to[t] * to[t];
+                for j in 0..n {
+                    a.3[j] += w * s[t * n + j];
+                    a.4[j] += w * to[t] * s[t * n + j];
+                }
+                if t == 0 || q[t] != q[t - 1] {
+                    runs[q[t]].1 += w;
+                }
+                runs[q[t]].0 += w;
+            }
+        }
+        for i in 0..l {
+            let (w, st, stt, ss, sts) = &acc[i];
+            if *w <= 0.0 {
+                continue;
+            }
+            let tm = st / w;
+            let st_state = &mut self.states[i];
+            st_state.t_mean = tm;
+            st_state.t_var = (stt / w - tm * tm).max(1e-6);
+            for j in 0..n {
+                st_state.ts_cov[j] = sts[j] / w - tm * ss[j] / w;
+            }
+            if runs[i].1 > 0.0 {
+                self.durations[i] = runs[i].0 / runs[i].1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Algorithm 3, generation part (steps 6–10), at the learned sampling period, resampled to
+    /// `dt`; translated so that it starts at `start` when given.
+    pub fn generate(&self, start: Option<&[f64]>, dt: f64) -> Result<Trajectory> {
+        if !(dt > 0.0) || !dt.is_finite() {
+            return Err(invalid("dt", "must be finite and > 0"));
+        }
+        let (n, l) = (self.dim, self.l());
+        // Step 6: deterministic state sequence.
+        let mut q = Vec::new();
+        let mut i = self.prior.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map_or(0, |(i, _)| i);
+        let mut visited = vec![false; l];
+        loop {
+            visited[i] = true;
+            let aii = self.trans[i * l + i];
+            let d = if aii < 1.0 - 1e-9 { 1.0 / (1.0 - aii) } else { self.durations[i] };
+            let d = d.round().max(1.0) as usize;
+            q.extend(std::iter::repeat_n(i, d));
+            let next = (0..l).filter(|&j| j != i).max_by(|a, b| self.trans[i * l + a].total_cmp(&self.trans[i * l + b]));
+            match next {
+                Some(j) if self.trans[i * l + j] > 0.0 && !visited[j] => i = j,
+                _ => break,
+            }
+        }
+        // Step 7–8: relative time and responsibilities from the temporal model.
+        let to = Self::relative_time(&q);
+        let t_len = q.len();
+        let mut logb = vec![0.0; t_len * l];
+        for t in 0..t_len {
+            for (k, s) in self.states.iter().enumerate() {
+                let z = to[t] - s.t_mean;
+                logb[t * l + k] = -0.5 * (LN_2PI + s.t_var.ln()) - 0.5 * z * z / s.t_var;
+            }
+        }
+        let (_, gamma, _) = self.forward_backward(&logb, t_len);
+        // Step 9–10. Each state's time variable is extended linearly beyond its own run in Q
+        // (`(t − start_k + ½)/d_k`), so that `ˢo_k(t)` is continuous in t; with the literal
+        // per-run `ᵗo(t)`, which jumps from ≈1 to ≈0 at every state change, the mixture A.30 jumps
+        // wherever the responsibilities overlap.
+        let mut run = vec![(0usize, 0usize); l];
+        for (t, &k) in q.iter().enumerate() {
+            if run[k].1 == 0 {
+                run[k].0 = t;
+            }
+            run[k].1 += 1;
+        }
+        let mut pos = vec![0.0; t_len * n];
+        for t in 0..t_len {
+            for (k, s) in self.states.iter().enumerate() {
+                let g = gamma[t * l + k];
+                if g == 0.0 {
+                    continue;
+                }
+                let tk = if run[k].1 > 0 { (t as f64 - run[k].0 as f64 + 0.5) / run[k].1 as f64 } else { s.t_mean };
+                for j in 0..n {
+                    pos[t * n + j] += g * (s.mean[j] + s.ts_cov[j] / s.t_var * (tk - s.t_mean));
+                }
+            }
+        }
+        if let Some(x0) = start {
+            check_dim("HMM start", n, x0.len())?;
+            let off: Vec<f64> = (0..n).map(|j| x0[j] - pos[j]).collect();
+            for t in 0..t_len {
+                for j in 0..n {
+                    pos[t * n + j] += off[j];
+                }
+            }
+        }
+        // Resample to dt by linear interpolation.
+        let duration = (t_len - 1) as f64 * self.dt;
+        let m = (duration / dt).floor() as usize + 1;
+        let mut tr = Trajectory { dim: n, ..Default::default() };
+        for k in 0..m {
+            let tt = k as f64 * dt;
+            let f = (tt / self.dt).min((t_len - 1) as f64);
+            let a = f.floor() as usize;
+            let b = (a + 1).min(t_len - 1);
+            let w = f - a as f64;
+            tr.t.push(tt);
+            for j in 0..n {
+                tr.pos.push((1.0 - w) * pos[a * n + j] + w * pos[b * n + j]);
+            }
+        }
+        tr.vel = crate::demo::finite_differences(n, &tr.t, &tr.pos);
+        tr.reached = true;
+        Ok(tr)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn demo(scale: f64) -> Demonstration {
+        let t: Vec<f64> = (0..150).map(|i| i as f64 * 0.01).collect();
+        let pos = t.iter().flat_map(|t| [scale * (2.0 * t).sin(), t * t]).collect();
+        Demonstration::new(2, t, pos, None).expect("demo")
+    }
+
+    #[test]
+    fn learns_and_generates_a_smooth_copy() {
+        let demos = [demo(1.0), demo(1.05), demo(0.95)];
+        let hmm = HmmPrimitive::fit(&demos, &HmmConfig { states: 8, ..Default::default() }).expect("fit");
+        // Left-to-right structure is kept.
+        let l = hmm.states.len();
+        for i in 0..l {
+            for j in 0..i {
+                assert_eq!(hmm.trans[i * l + j], 0.0);
+            }
+        }
+        let tr = hmm.generate(Some(demos[0].position(0)), 0.01).expect("gen");
+        // Similar duration and the generated path stays near the demonstration (DTW-aligned).
+        assert!((tr.t[tr.len() - 1] - demos[0].duration()).abs() < 0.3, "{}", tr.t[tr.len() - 1]);
+        let d = crate::dtw::dtw_distance(&tr.pos, &demos[0].pos, 2, None).expect("dtw") / (tr.len() as f64).sqrt();
+        // A.28 responsibilities smear neighbouring states (weak; see the crate notes).
+        assert!(d < 0.2, "per-sample distance {d}");
+        // Smooth: no step larger than a few demo steps.
+        let max_step = (1..tr.len()).map(|i| (0..2).map(|j| (tr.position(i)[j] - tr.position(i - 1)[j]).powi(2)).sum::<f64>().sqrt()).fold(0.0, f64::max);
+        assert!(max_step < 0.1, "{max_step}");
+    }
+}
