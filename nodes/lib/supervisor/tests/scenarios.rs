@@ -54,6 +54,31 @@ fn pouring_taught_then_executed() {
 }
 
 #[test]
+fn magnitude_raised_on_completion_and_subtrees_deallocated() {
+    // μ_b = μ_parent + k·n (Sec. 4.3.2): after take(water), add(water) has μ = 2 and so has
+    // pour(water), which then beats the untouched add(coffee) branch (μ = 1) at equal distance.
+    let learned = learned(ltm("kitchen.schema"), "prepareCoffee", "coffee_teach.jsonl");
+    let mut sup = Supervisor::new(learned, "prepareCoffee", SupervisorConfig::default()).expect("task");
+    let cfg = RunConfig { robot: Some(SimRobot { action_duration_s: 0.5 }), tail_s: 60.0, ..RunConfig::default() };
+    let mut checked = false;
+    let rep = runner::run(&mut sup, &events("coffee_execute_water_first.jsonl"), &cfg, |s, _, _, d| {
+        if !checked && d.iter().any(|d| matches!(d, Decision::Accomplished { behaviour } if behaviour == "subtask(take,water)")) {
+            let snap = s.snapshot();
+            let mu = |name: &str| snap.nodes.iter().find(|n| n.name == name).map(|n| n.magnitude);
+            assert_eq!(mu("add(water)"), Some(2.0));
+            assert_eq!(mu("subtask(pour,water)"), Some(2.0));
+            assert_eq!(mu("add(coffee)"), Some(1.0));
+            assert!(snap.nodes.iter().any(|n| n.name == "subtask(take,water)" && n.done), "accomplished node kept");
+            assert!(snap.nodes.iter().all(|n| n.name != "foa1(water)"), "accomplished subtree deallocated");
+            checked = true;
+        }
+    });
+    assert!(checked && rep.task_accomplished());
+    let names: Vec<&str> = sup.wm().iter().map(|n| n.label.as_str()).collect();
+    assert_eq!(names, vec!["alive", "prepareCoffee"], "only the accomplished task node is left");
+}
+
+#[test]
 fn prepare_coffee_learned_from_demonstration() {
     // Fig. 4.16: 6 subtasks receive the actions; first action of each subtask has a true
     // releaser, the others are chained.
@@ -78,6 +103,13 @@ fn prepare_coffee_learned_from_demonstration() {
         total += e.len();
     }
     assert_eq!(total, 24);
+    // Demonstrating coffee before water attaches the same way (only the labels differ).
+    let other = common::learned(ltm("kitchen.schema"), "prepareCoffee", "coffee_teach_coffee_first.jsonl");
+    for s in subtasks {
+        let n = entries(&other, s).len();
+        assert_eq!(n, entries(&learned, s).len(), "{s}");
+    }
+    assert_eq!(entries(&other, "subtask(take,coffee)")[0].0, "foa1(coffee)");
     // The generic schemas are untouched, so other objects stay open.
     assert!(schema(&learned, "subtask(take,Obj)").list.is_empty());
 
