@@ -5,6 +5,24 @@
 //! demonstrations (Algorithm 4) and tick-driven execution with cooperative replanning and
 //! dual-arm arbitration of a shared area. No ROS dependency: the node and the CLI drive it.
 //!
+//! Modules: [`schema`] (notation, parser, printer), [`ltm`] (validation, retrieval, learning
+//! updates, atomic save), [`wm`] (tree and `alive`), [`state`] (variables V), [`attention`]
+//! (λ, μ, e), [`teaching`] (Algorithm 4), [`executive`] ([`Supervisor`]), [`events`] (JSON-lines
+//! stimuli), [`runner`] (script driver with a simulated robot manager).
+//!
+//! Interpretations where the thesis leaves room (each is tested):
+//! * every concrete behaviour is re-evaluated every tick (the period λ only weighs emphasis),
+//!   so a new stimulus yields a new command in the tick it arrives;
+//! * the running action keeps its arm unless a competitor's emphasis exceeds it by
+//!   `hysteresis` (default 10 %), or it stops being enabled/accessible (object not visible,
+//!   subtask given to the person, releaser false);
+//! * a behaviour whose children are all accomplished asserts its post-condition; while
+//!   teaching, a demonstrated subtask ends when its releaser turns false;
+//! * free variables of a schema entry (the arm `A` of eq. 4.11) are enumerated over the
+//!   declared arms; the instances form a conflict group and the first one started wins;
+//! * the central area is granted to the arm that first asked for it and released when that
+//!   arm completes an action whose object lies outside it.
+//!
 //! ```
 //! use cowork_supervisor::{Ltm, Supervisor, SupervisorConfig, Event, Decision};
 //! let ltm = Ltm::parse(

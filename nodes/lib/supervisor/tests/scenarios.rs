@@ -226,3 +226,45 @@ fn dual_arm_pizza_central_area_exclusive() {
     assert_eq!(rep.max_latency_ticks, 1);
     let _ = Clause::Arms { names: vec![], pos: Default::default() };
 }
+
+fn action_labels(d: &[Decision]) -> Vec<String> {
+    d.iter()
+        .filter_map(|d| match d {
+            Decision::Action { label, .. } => Some(label.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn stop_repeat_and_failures() {
+    use cowork_supervisor::Event;
+    let learned = learned(ltm("kitchen.schema"), "prepareCoffee", "coffee_teach.jsonl");
+    let mut sup = Supervisor::new(learned, "prepareCoffee", SupervisorConfig::default()).expect("task");
+    let objs = events("coffee_execute_water_first.jsonl");
+    sup.handle(&objs[0].event, 0.0);
+    assert_eq!(action_labels(&sup.tick_vec(0.0)), vec!["foa1(water)"]);
+    // stop suspends (Stop decision, nothing commanded), repeat resumes the same action.
+    sup.handle(&Event::Speech { text: "stop".into() }, 0.1);
+    let d = sup.tick_vec(0.1);
+    assert!(d.iter().any(|d| matches!(d, Decision::Stop { label, .. } if label == "foa1(water)")), "{d:?}");
+    assert!(action_labels(&sup.tick_vec(0.2)).is_empty());
+    sup.handle(&Event::Speech { text: "repeat".into() }, 0.3);
+    assert_eq!(action_labels(&sup.tick_vec(0.3)), vec!["foa1(water)"]);
+    // A failed action is retried; after max_retries (3) its subtask is given up and the
+    // robot turns to the other branch.
+    for i in 0..3 {
+        sup.handle(&Event::ActionFailed { arm: None, label: "foa1(water)".into(), reason: "blocked".into() }, 0.4 + f64::from(i));
+        let d = sup.tick_vec(0.4 + f64::from(i));
+        assert!(d.iter().any(|d| matches!(d, Decision::Warning { .. })));
+        let expect = if i < 2 { "foa1(water)" } else { "foa9(coffee)" };
+        assert_eq!(action_labels(&d), vec![expect], "after failure {}", i + 1);
+    }
+    // teach stops the robot; done goes back to executing.
+    sup.handle(&Event::Speech { text: "teach".into() }, 5.0);
+    let d = sup.tick_vec(5.0);
+    assert!(d.iter().any(|d| matches!(d, Decision::Stop { .. })) && d.iter().any(|d| matches!(d, Decision::Mode { .. })));
+    assert!(action_labels(&sup.tick_vec(5.1)).is_empty());
+    sup.handle(&Event::Speech { text: "done".into() }, 5.2);
+    assert_eq!(action_labels(&sup.tick_vec(5.2)), vec!["foa9(coffee)"]);
+}
