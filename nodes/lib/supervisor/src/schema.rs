@@ -462,15 +462,19 @@ fn lex(text: &str) -> Result<Vec<(Tok, Pos)>> {
 // ---------------------------------------------------------------------------------------------
 // Parser
 
+/// Deepest term nesting accepted (guards the recursive parser against hostile input).
+const MAX_NESTING: usize = 32;
+
 struct Parser {
     toks: Vec<(Tok, Pos)>,
     i: usize,
     comments: Vec<String>,
+    depth: usize,
 }
 
 impl Parser {
     fn new(text: &str) -> Result<Self> {
-        Ok(Self { toks: lex(text)?, i: 0, comments: Vec::new() })
+        Ok(Self { toks: lex(text)?, i: 0, comments: Vec::new(), depth: 0 })
     }
 
     /// Current token, collecting comments that precede it.
@@ -621,6 +625,17 @@ impl Parser {
     }
 
     fn term(&mut self) -> Result<Term> {
+        self.depth += 1;
+        let t = self.term_inner();
+        self.depth -= 1;
+        t
+    }
+
+    fn term_inner(&mut self) -> Result<Term> {
+        if self.depth > MAX_NESTING {
+            let pos = self.peek().1;
+            return self.err(pos, format!("terms nested deeper than {MAX_NESTING}"));
+        }
         let functor = match self.next() {
             (Tok::Atom(a), _) => a,
             (t, p) => return self.err(p, format!("expected a behaviour name (lower-case) but found {t}")),
@@ -732,6 +747,13 @@ mod tests {
             }
             other => panic!("expected a syntax error, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_crash() {
+        let deep = format!("{}x{}", "a(".repeat(100_000), ")".repeat(100_000));
+        assert!(matches!(Term::parse(&deep), Err(Error::Syntax { line: 1, .. })));
+        assert!(Term::parse(&format!("{}x{}", "a(".repeat(10), ")".repeat(10))).is_ok());
     }
 
     #[test]
