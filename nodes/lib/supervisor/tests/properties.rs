@@ -195,3 +195,20 @@ fn document() -> impl Strategy<Value = Document> {
     (prop::collection::vec(item, 0..6), prop::collection::vec(comment, 0..2))
         .prop_map(|(items, trailing_comments)| Document { items, trailing_comments })
 }
+
+#[test]
+fn learned_ltms_save_load_save_byte_identical() {
+    let dir = tempfile::tempdir().expect("tmp");
+    for (name, l) in [("coffee", coffee_ltm()), ("pizza", pizza_ltm()), ("kitchen", ltm("kitchen.schema"))] {
+        let a = dir.path().join(format!("{name}-a.schema"));
+        let b = dir.path().join(format!("{name}-b.schema"));
+        l.save(&a).expect("save");
+        Ltm::load(&a).expect("load").save(&b).expect("save again");
+        assert_eq!(std::fs::read(&a).expect("a"), std::fs::read(&b).expect("b"), "{name}");
+    }
+    // The shipped files are already canonical: learning only appends to them.
+    for f in ["kitchen.schema", "pizza.schema"] {
+        let text = std::fs::read_to_string(task_file(f)).expect("read");
+        assert_eq!(ltm(f).to_text(), text, "{f} is not in canonical form");
+    }
+}
