@@ -268,3 +268,21 @@ fn stop_repeat_and_failures() {
     sup.handle(&Event::Speech { text: "done".into() }, 5.2);
     assert_eq!(action_labels(&sup.tick_vec(5.2)), vec!["foa9(coffee)"]);
 }
+
+#[test]
+fn cooperative_decisions_match_golden_file() {
+    // The whole decision stream is deterministic; regenerate with UPDATE_GOLDEN=1.
+    let learned = learned(ltm("kitchen.schema"), "prepareCoffee", "coffee_teach.jsonl");
+    let (_, rep) = run(learned, "prepareCoffee", "coffee_cooperative.jsonl", Some(0.5));
+    let mut text = String::new();
+    for r in &rep.records {
+        text.push_str(&serde_json::to_string(r).expect("json"));
+        text.push('\n');
+    }
+    let golden = data("coffee_cooperative.decisions.jsonl");
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        std::fs::write(&golden, &text).expect("write golden");
+    }
+    let want = std::fs::read_to_string(&golden).expect("golden file (run with UPDATE_GOLDEN=1 to create)");
+    assert_eq!(text, want, "decision stream changed; inspect and regenerate with UPDATE_GOLDEN=1");
+}
