@@ -111,9 +111,14 @@ pub fn read_demonstration(path: &Path) -> Result<Demonstration> {
 
 /// Reads query points with header `x0..x{n−1}`; returns `(n, row-major values)`.
 pub fn read_points(path: &Path) -> Result<(usize, Vec<f64>)> {
+    read_points_named(path, "x")
+}
+
+/// Reads a table whose header is `{prefix}0..{prefix}{n−1}`; returns `(n, row-major values)`.
+pub fn read_points_named(path: &Path, prefix: &str) -> Result<(usize, Vec<f64>)> {
     let table = read_table(path)?;
     let n = table.header.len();
-    let xs: Vec<String> = (0..n).map(|i| format!("x{i}")).collect();
+    let xs: Vec<String> = (0..n).map(|i| format!("{prefix}{i}")).collect();
     expect_columns(path, &table.header, &xs, 0)?;
     Ok((n, table.rows.into_iter().flatten().collect()))
 }
