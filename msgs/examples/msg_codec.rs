@@ -27,7 +27,9 @@ fn main() -> Result<()> {
 
 fn read_stdin() -> Result<Vec<Value>> {
     let mut text = String::new();
-    std::io::stdin().read_to_string(&mut text).context("reading stdin")?;
+    std::io::stdin()
+        .read_to_string(&mut text)
+        .context("reading stdin")?;
     serde_json::from_str(&text).context("stdin is not a JSON array")
 }
 
@@ -49,7 +51,9 @@ fn types() -> Result<Value> {
 }
 
 fn field<'a>(item: &'a Value, key: &str, index: usize) -> Result<&'a str> {
-    item.get(key).and_then(Value::as_str).with_context(|| format!("item {index}: no string field {key:?}"))
+    item.get(key)
+        .and_then(Value::as_str)
+        .with_context(|| format!("item {index}: no string field {key:?}"))
 }
 
 fn encode(items: &[Value]) -> Result<Value> {
@@ -57,7 +61,9 @@ fn encode(items: &[Value]) -> Result<Value> {
     for (i, item) in items.iter().enumerate() {
         let ty = field(item, "type", i)?;
         let info = find_type(ty).with_context(|| format!("item {i}: unknown type {ty}"))?;
-        let value = item.get("value").with_context(|| format!("item {i}: no value"))?;
+        let value = item
+            .get("value")
+            .with_context(|| format!("item {i}: no value"))?;
         let bytes = (info.json_to_cdr)(value).with_context(|| format!("item {i}"))?;
         out.push(json!({ "type": ty, "cdr_hex": hex(&bytes) }));
     }
@@ -81,7 +87,7 @@ fn hex(bytes: &[u8]) -> String {
 }
 
 fn unhex(text: &str) -> Result<Vec<u8>> {
-    if !text.is_ascii() || text.len() % 2 != 0 {
+    if !text.is_ascii() || !text.len().is_multiple_of(2) {
         bail!("not an even number of ASCII hex digits");
     }
     (0..text.len())
