@@ -6,26 +6,30 @@
 //! ```
 //! The URDF is `config/robot/lwr4plus.urdf`, or `$COWORK_URDF` when set.
 
-use cowork_robot::{damped_pseudo_inverse, Jacobian, JointVector, LinkPoses, RobotModel};
-use criterion::{criterion_group, criterion_main, Criterion};
+use cowork_robot::{Jacobian, JointVector, LinkPoses, RobotModel, damped_pseudo_inverse};
+use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::Point3;
 use rand::{Rng, SeedableRng};
 use std::hint::black_box;
 use std::path::PathBuf;
 
 fn urdf_path() -> PathBuf {
-    std::env::var_os("COWORK_URDF").map(PathBuf::from).unwrap_or_else(|| {
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf")
-    })
+    std::env::var_os("COWORK_URDF")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf")
+        })
 }
 
 fn configs(model: &RobotModel, n: usize) -> Vec<JointVector> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
     (0..n)
-        .map(|_| JointVector::from_fn(|i, _| {
-            let l = model.joint_limits()[i];
-            rng.random_range(l.lower..l.upper)
-        }))
+        .map(|_| {
+            JointVector::from_fn(|i, _| {
+                let l = model.joint_limits()[i];
+                rng.random_range(l.lower..l.upper)
+            })
+        })
         .collect()
 }
 
@@ -51,8 +55,12 @@ fn bench(c: &mut Criterion) {
         b.iter(|| model.jacobian(black_box(&poses), tip, &point, &mut jac))
     });
     model.jacobian(&poses, tip, &point, &mut jac);
-    g.bench_function("damped_pseudo_inverse", |b| b.iter(|| damped_pseudo_inverse(black_box(&jac), 0.01)));
-    g.bench_function("pseudo_inverse_undamped", |b| b.iter(|| damped_pseudo_inverse(black_box(&jac), 0.0)));
+    g.bench_function("damped_pseudo_inverse", |b| {
+        b.iter(|| damped_pseudo_inverse(black_box(&jac), 0.01))
+    });
+    g.bench_function("pseudo_inverse_undamped", |b| {
+        b.iter(|| damped_pseudo_inverse(black_box(&jac), 0.0))
+    });
     g.bench_function("fk_jacobian_damped_pinv", |b| {
         b.iter(|| {
             model.forward_kinematics(black_box(next()), &mut poses);

@@ -13,10 +13,10 @@
 
 use anyhow::Context;
 use clap::Parser;
-use cowork_robot::{Jacobian, JointVector, LinkPoses, RobotModel, DOF};
+use cowork_robot::{DOF, Jacobian, JointVector, LinkPoses, RobotModel};
 use nalgebra::Point3;
 use rand::{Rng, SeedableRng};
-use serde_json::{json, Value};
+use serde_json::{Value, json};
 use std::path::PathBuf;
 
 #[derive(Debug, Parser)]
@@ -39,7 +39,11 @@ struct Args {
 }
 
 fn rows(j: &Jacobian) -> Value {
-    json!((0..6).map(|r| (0..DOF).map(|c| j[(r, c)]).collect::<Vec<_>>()).collect::<Vec<_>>())
+    json!(
+        (0..6)
+            .map(|r| (0..DOF).map(|c| j[(r, c)]).collect::<Vec<_>>())
+            .collect::<Vec<_>>()
+    )
 }
 
 fn run(args: Args) -> anyhow::Result<()> {
@@ -74,7 +78,11 @@ fn run(args: Args) -> anyhow::Result<()> {
             links.insert(name.clone(), entry);
         }
         let link = rng.random_range(1..model.link_count());
-        let point = Point3::new(rng.random_range(-0.2..0.2), rng.random_range(-0.2..0.2), rng.random_range(-0.2..0.2));
+        let point = Point3::new(
+            rng.random_range(-0.2..0.2),
+            rng.random_range(-0.2..0.2),
+            rng.random_range(-0.2..0.2),
+        );
         model.jacobian(&poses, link, &point, &mut jac);
         samples.push(json!({
             "q": q.as_slice(),
@@ -95,9 +103,17 @@ fn run(args: Args) -> anyhow::Result<()> {
         "link_names": model.link_names(),
         "samples": samples,
     });
-    let file = std::fs::File::create(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    serde_json::to_writer(std::io::BufWriter::new(file), &doc).with_context(|| format!("writing {}", args.out.display()))?;
-    println!("{} configurations of `{}` ({} links) -> {}", args.count, model.name(), model.link_count(), args.out.display());
+    let file = std::fs::File::create(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    serde_json::to_writer(std::io::BufWriter::new(file), &doc)
+        .with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "{} configurations of `{}` ({} links) -> {}",
+        args.count,
+        model.name(),
+        model.link_count(),
+        args.out.display()
+    );
     Ok(())
 }
 

@@ -42,6 +42,6 @@ pub use error::{Error, Result};
 pub use linalg::{damped_pseudo_inverse, damped_pseudo_inverse_3, null_space_projector};
 pub use mesh::TriMesh;
 pub use model::{
-    Jacobian, JacobianPinv, JointLimit, JointMatrix, JointVector, LinkPoses, PositionJacobian, PositionJacobianPinv,
-    RobotModel, DOF, MAX_LINKS,
+    DOF, Jacobian, JacobianPinv, JointLimit, JointMatrix, JointVector, LinkPoses, MAX_LINKS,
+    PositionJacobian, PositionJacobianPinv, RobotModel,
 };

@@ -2,7 +2,9 @@
 //!
 //! Allocation-free: every size is a compile-time constant.
 
-use crate::model::{Jacobian, JacobianPinv, JointMatrix, PositionJacobian, PositionJacobianPinv, DOF};
+use crate::model::{
+    DOF, Jacobian, JacobianPinv, JointMatrix, PositionJacobian, PositionJacobianPinv,
+};
 use nalgebra::{Matrix3, Matrix6, SMatrix};
 
 /// Damped pseudo-inverse of a 6×7 Jacobian: `J† = Jᵀ (J Jᵀ + λ² I)⁻¹`, λ = `damping`.
@@ -27,13 +29,18 @@ pub fn damped_pseudo_inverse(j: &Jacobian, damping: f64) -> JacobianPinv {
     for i in 0..6 {
         a[(i, i)] += damping * damping;
     }
-    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) { a.cholesky() } else { None };
+    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) {
+        a.cholesky()
+    } else {
+        None
+    };
     match cholesky {
         Some(ch) => ch.solve(j).transpose(),
         None => {
             let eig = a.symmetric_eigen();
             let inv = pinv_from_eigen(eig.eigenvalues.as_slice(), 6);
-            let a_pinv = eig.eigenvectors * Matrix6::from_diagonal(&inv.fixed_rows::<6>(0).into_owned())
+            let a_pinv = eig.eigenvectors
+                * Matrix6::from_diagonal(&inv.fixed_rows::<6>(0).into_owned())
                 * eig.eigenvectors.transpose();
             j.transpose() * a_pinv
         }
@@ -47,13 +54,18 @@ pub fn damped_pseudo_inverse_3(j: &PositionJacobian, damping: f64) -> PositionJa
     for i in 0..3 {
         a[(i, i)] += damping * damping;
     }
-    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) { a.cholesky() } else { None };
+    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) {
+        a.cholesky()
+    } else {
+        None
+    };
     match cholesky {
         Some(ch) => ch.solve(j).transpose(),
         None => {
             let eig = a.symmetric_eigen();
             let inv = pinv_from_eigen(eig.eigenvalues.as_slice(), 3);
-            let a_pinv = eig.eigenvectors * Matrix3::from_diagonal(&inv.fixed_rows::<3>(0).into_owned())
+            let a_pinv = eig.eigenvectors
+                * Matrix3::from_diagonal(&inv.fixed_rows::<3>(0).into_owned())
                 * eig.eigenvectors.transpose();
             j.transpose() * a_pinv
         }
@@ -89,6 +101,9 @@ fn pinv_from_eigen(eigenvalues: &[f64], n: usize) -> nalgebra::SVector<f64, 6> {
 /// Null-space projector `N = I − J† J` (7×7) for a Jacobian with any number of rows `R` and its
 /// (damped) pseudo-inverse. Joint rates `N q̇₀` do not disturb the task of `J` (exactly so only
 /// for an undamped `J†`; with damping, to first order in λ²).
-pub fn null_space_projector<const R: usize>(j: &SMatrix<f64, R, DOF>, j_pinv: &SMatrix<f64, DOF, R>) -> JointMatrix {
+pub fn null_space_projector<const R: usize>(
+    j: &SMatrix<f64, R, DOF>,
+    j_pinv: &SMatrix<f64, DOF, R>,
+) -> JointMatrix {
     JointMatrix::identity() - j_pinv * j
 }

@@ -31,8 +31,12 @@ impl TriMesh {
     pub fn append(&mut self, other: &TriMesh) {
         let base = u32::try_from(self.vertices.len()).expect("mesh exceeds u32 vertex indices");
         self.vertices.extend_from_slice(&other.vertices);
-        self.triangles
-            .extend(other.triangles.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]));
+        self.triangles.extend(
+            other
+                .triangles
+                .iter()
+                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+        );
     }
 
     /// Maps every vertex through `pose` (e.g. a `<collision><origin>` into the link frame).
@@ -58,9 +62,11 @@ impl TriMesh {
     /// Axis-aligned bounding box `(min, max)` (m), `None` for a mesh without vertices.
     pub fn aabb(&self) -> Option<(Point3<f64>, Point3<f64>)> {
         let first = *self.vertices.first()?;
-        Some(self.vertices.iter().fold((first, first), |(lo, hi), v| {
-            (lo.inf(v), hi.sup(v))
-        }))
+        Some(
+            self.vertices
+                .iter()
+                .fold((first, first), |(lo, hi), v| (lo.inf(v), hi.sup(v))),
+        )
     }
 
     /// Surface of revolution about the link z axis.
@@ -113,7 +119,10 @@ impl TriMesh {
 
     /// Closed cylinder of `radius` along z from `z0` to `z1` (m) with flat caps.
     pub fn cylinder(radius: f64, z0: f64, z1: f64, segments: usize) -> TriMesh {
-        Self::revolution(&[(0.0, z0), (radius, z0), (radius, z1), (0.0, z1)], segments)
+        Self::revolution(
+            &[(0.0, z0), (radius, z0), (radius, z1), (0.0, z1)],
+            segments,
+        )
     }
 
     /// Closed cylinder of `radius` along z from `z0` to `z1` whose ends are hemispheres
@@ -183,7 +192,10 @@ impl TriMesh {
             [3, 0, 4],
             [3, 4, 7], // -x
         ];
-        TriMesh { vertices, triangles }
+        TriMesh {
+            vertices,
+            triangles,
+        }
     }
 
     /// Reads an ASCII or binary STL. Identical vertices are merged; coordinates are taken as
@@ -195,8 +207,14 @@ impl TriMesh {
             .iter()
             .map(|v| Point3::new(f64::from(v[0]), f64::from(v[1]), f64::from(v[2])))
             .collect();
-        if let Some(i) = vertices.iter().position(|v| !v.coords.iter().all(|c| c.is_finite())) {
-            return Err(format!("vertex {i} is not finite: {:?}", vertices[i].coords.as_slice()));
+        if let Some(i) = vertices
+            .iter()
+            .position(|v| !v.coords.iter().all(|c| c.is_finite()))
+        {
+            return Err(format!(
+                "vertex {i} is not finite: {:?}",
+                vertices[i].coords.as_slice()
+            ));
         }
         let n = u32::try_from(vertices.len()).map_err(|_| "too many vertices".to_string())?;
         let mut triangles = Vec::with_capacity(indexed.faces.len());
@@ -210,7 +228,10 @@ impl TriMesh {
         if triangles.is_empty() {
             return Err("the STL has no triangles".into());
         }
-        Ok(TriMesh { vertices, triangles })
+        Ok(TriMesh {
+            vertices,
+            triangles,
+        })
     }
 
     /// Writes a binary STL (single precision, as the format demands). Normals are computed from

@@ -99,7 +99,10 @@ impl Default for LinkPoses {
 impl LinkPoses {
     /// An empty set (no link yet).
     pub fn new() -> Self {
-        Self { poses: [Isometry3::identity(); MAX_LINKS], len: 0 }
+        Self {
+            poses: [Isometry3::identity(); MAX_LINKS],
+            len: 0,
+        }
     }
 
     /// Number of links (0 before the first forward kinematics).
@@ -165,7 +168,11 @@ impl RobotModel {
     }
 
     /// Like [`from_urdf_str`](Self::from_urdf_str), but the chain ends at link `tip`.
-    pub fn from_urdf_str_with_tip(text: &str, base_dir: impl AsRef<Path>, tip: &str) -> Result<Self> {
+    pub fn from_urdf_str_with_tip(
+        text: &str,
+        base_dir: impl AsRef<Path>,
+        tip: &str,
+    ) -> Result<Self> {
         crate::urdf::load_str(text, base_dir.as_ref(), Some(tip)).map(Self::from_parts)
     }
 
@@ -254,12 +261,18 @@ impl RobotModel {
 
     /// Total number of mesh vertices over all links of the chain.
     pub fn mesh_vertex_count(&self) -> usize {
-        self.links.iter().filter_map(|l| l.mesh.as_ref()).map(|m| m.vertices.len()).sum()
+        self.links
+            .iter()
+            .filter_map(|l| l.mesh.as_ref())
+            .map(|m| m.vertices.len())
+            .sum()
     }
 
     /// `q` clamped into the joint position limits.
     pub fn clamp_to_limits(&self, q: &JointVector) -> JointVector {
-        JointVector::from_fn(|i, _| q[i].clamp(self.joint_limits[i].lower, self.joint_limits[i].upper))
+        JointVector::from_fn(|i, _| {
+            q[i].clamp(self.joint_limits[i].lower, self.joint_limits[i].upper)
+        })
     }
 
     /// Poses of all links in the base frame at joint positions `q` (rad).
@@ -303,7 +316,13 @@ impl RobotModel {
     ///
     /// # Panics
     /// If `link` is not a link of `poses`.
-    pub fn jacobian(&self, poses: &LinkPoses, link: usize, point_in_link: &Point3<f64>, jac: &mut Jacobian) {
+    pub fn jacobian(
+        &self,
+        poses: &LinkPoses,
+        link: usize,
+        point_in_link: &Point3<f64>,
+        jac: &mut Jacobian,
+    ) {
         let p = poses.get(link) * point_in_link;
         jac.fill(0.0);
         for (j, &l) in self.joint_links.iter().enumerate() {

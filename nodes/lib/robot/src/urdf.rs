@@ -6,7 +6,9 @@
 
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::model::{origin_to_isometry, ChainJoint, ChainLink, ChainParts, JointLimit, DOF, MAX_LINKS};
+use crate::model::{
+    ChainJoint, ChainLink, ChainParts, DOF, JointLimit, MAX_LINKS, origin_to_isometry,
+};
 use nalgebra::{Isometry3, Unit, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -16,8 +18,10 @@ const PRIMITIVE_SEGMENTS: usize = 24;
 const PRIMITIVE_RINGS: usize = 6;
 
 pub(crate) fn load_file(path: &Path, tip: Option<&str>) -> Result<ChainParts> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|source| Error::Io { urdf: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        urdf: path.to_path_buf(),
+        source,
+    })?;
     let dir = path.parent().unwrap_or_else(|| Path::new("."));
     load(&text, path, dir, tip)
 }
@@ -27,15 +31,21 @@ pub(crate) fn load_str(text: &str, base_dir: &Path, tip: Option<&str>) -> Result
 }
 
 fn load(text: &str, urdf: &Path, dir: &Path, tip: Option<&str>) -> Result<ChainParts> {
-    let robot = urdf_rs::read_from_string(text)
-        .map_err(|e| Error::Urdf { path: urdf.to_path_buf(), message: e.to_string() })?;
+    let robot = urdf_rs::read_from_string(text).map_err(|e| Error::Urdf {
+        path: urdf.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let cx = Context { urdf, dir };
 
     let link_by_name: HashMap<&str, &urdf_rs::Link> =
         robot.links.iter().map(|l| (l.name.as_str(), l)).collect();
     if link_by_name.len() != robot.links.len() {
         let mut seen = std::collections::HashSet::new();
-        let dup = robot.links.iter().find(|l| !seen.insert(l.name.as_str())).map(|l| l.name.clone());
+        let dup = robot
+            .links
+            .iter()
+            .find(|l| !seen.insert(l.name.as_str()))
+            .map(|l| l.name.clone());
         return Err(Error::Urdf {
             path: urdf.to_path_buf(),
             message: format!("link `{}` is defined twice", dup.unwrap_or_default()),
@@ -50,7 +60,12 @@ fn load(text: &str, urdf: &Path, dir: &Path, tip: Option<&str>) -> Result<ChainP
             }
         }
         if parent_joint.insert(j.child.link.as_str(), j).is_some() {
-            return Err(cx.bad_joint_link(j, "child", &j.child.link, "link is the child of two joints"));
+            return Err(cx.bad_joint_link(
+                j,
+                "child",
+                &j.child.link,
+                "link is the child of two joints",
+            ));
         }
     }
     let roots: Vec<&str> = robot
@@ -60,23 +75,40 @@ fn load(text: &str, urdf: &Path, dir: &Path, tip: Option<&str>) -> Result<ChainP
         .filter(|n| !parent_joint.contains_key(n))
         .collect();
     let [root] = roots[..] else {
-        return Err(Error::Root { urdf: urdf.to_path_buf(), roots: roots.iter().map(|s| s.to_string()).collect() });
+        return Err(Error::Root {
+            urdf: urdf.to_path_buf(),
+            roots: roots.iter().map(|s| s.to_string()).collect(),
+        });
     };
 
     let path_to = |link| path_to_root(&parent_joint, link, robot.links.len());
-    let cycle_error = || Error::Root { urdf: urdf.to_path_buf(), roots: vec![] };
+    let cycle_error = || Error::Root {
+        urdf: urdf.to_path_buf(),
+        roots: vec![],
+    };
 
     let tip_name: &str = match tip {
         Some(t) => link_by_name
             .get_key_value(t)
             .map(|(k, _)| *k)
-            .ok_or_else(|| Error::UnknownTip { urdf: urdf.to_path_buf(), link: t.to_string() })?,
+            .ok_or_else(|| Error::UnknownTip {
+                urdf: urdf.to_path_buf(),
+                link: t.to_string(),
+            })?,
         None => {
-            let has_child: std::collections::HashSet<&str> =
-                robot.joints.iter().map(|j| j.parent.link.as_str()).collect();
+            let has_child: std::collections::HashSet<&str> = robot
+                .joints
+                .iter()
+                .map(|j| j.parent.link.as_str())
+                .collect();
             let mut best: Vec<&str> = Vec::new();
             let mut best_depth = 0;
-            for l in robot.links.iter().map(|l| l.name.as_str()).filter(|l| !has_child.contains(l)) {
+            for l in robot
+                .links
+                .iter()
+                .map(|l| l.name.as_str())
+                .filter(|l| !has_child.contains(l))
+            {
                 let depth = path_to(l).ok_or_else(cycle_error)?.len();
                 if depth > best_depth {
                     best_depth = depth;
@@ -114,7 +146,10 @@ fn load(text: &str, urdf: &Path, dir: &Path, tip: Option<&str>) -> Result<ChainP
     let found = chain[1..]
         .iter()
         .filter(|l| {
-            matches!(parent_joint[*l].joint_type, urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous)
+            matches!(
+                parent_joint[*l].joint_type,
+                urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous
+            )
         })
         .count();
     if found != DOF {
@@ -141,22 +176,40 @@ fn load(text: &str, urdf: &Path, dir: &Path, tip: Option<&str>) -> Result<ChainP
                 urdf_rs::JointType::Fixed => (origin, None, Vector3::z_axis()),
                 urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
                     let axis = cx.axis(j)?;
-                    joints.push(ChainJoint { name: j.name.clone(), limit: cx.limit(j)? });
+                    joints.push(ChainJoint {
+                        name: j.name.clone(),
+                        limit: cx.limit(j)?,
+                    });
                     (origin, Some(joints.len() - 1), axis)
                 }
                 _ => unreachable!("joint types were checked above"),
             }
         };
         let mesh = cx.link_mesh(link_by_name[name])?;
-        links.push(ChainLink { name: name.to_string(), origin, joint, axis, mesh });
+        links.push(ChainLink {
+            name: name.to_string(),
+            origin,
+            joint,
+            axis,
+            mesh,
+        });
     }
     if links.len() > MAX_LINKS {
-        return Err(Error::TooManyLinks { urdf: urdf.to_path_buf(), found: links.len(), max: MAX_LINKS });
+        return Err(Error::TooManyLinks {
+            urdf: urdf.to_path_buf(),
+            found: links.len(),
+            max: MAX_LINKS,
+        });
     }
     let joints: [ChainJoint; DOF] = joints
         .try_into()
         .unwrap_or_else(|_| unreachable!("the chain was checked to have DOF actuated joints"));
-    Ok(ChainParts { name: robot.name.clone(), source: urdf.to_path_buf(), links, joints })
+    Ok(ChainParts {
+        name: robot.name.clone(),
+        source: urdf.to_path_buf(),
+        links,
+        joints,
+    })
 }
 
 struct Context<'a> {
@@ -165,7 +218,13 @@ struct Context<'a> {
 }
 
 impl Context<'_> {
-    fn bad_joint_link(&self, j: &urdf_rs::Joint, field: &'static str, link: &str, problem: &'static str) -> Error {
+    fn bad_joint_link(
+        &self,
+        j: &urdf_rs::Joint,
+        field: &'static str,
+        link: &str,
+        problem: &'static str,
+    ) -> Error {
         Error::BadJointLink {
             urdf: self.urdf.to_path_buf(),
             joint: j.name.clone(),
@@ -179,7 +238,12 @@ impl Context<'_> {
         if v.iter().all(|x| x.is_finite()) {
             Ok(())
         } else {
-            Err(Error::NonFinite { urdf: self.urdf.to_path_buf(), element: element.to_string(), field, value: v.to_vec() })
+            Err(Error::NonFinite {
+                urdf: self.urdf.to_path_buf(),
+                element: element.to_string(),
+                field,
+                value: v.to_vec(),
+            })
         }
     }
 
@@ -193,10 +257,17 @@ impl Context<'_> {
         let a = j.axis.xyz.0;
         let v = Vector3::from(a);
         if !v.iter().all(|x| x.is_finite()) {
-            return Err(Error::BadAxis { urdf: self.urdf.to_path_buf(), joint: j.name.clone(), axis: a });
+            return Err(Error::BadAxis {
+                urdf: self.urdf.to_path_buf(),
+                joint: j.name.clone(),
+                axis: a,
+            });
         }
-        Unit::try_new(v, 1e-12)
-            .ok_or_else(|| Error::BadAxis { urdf: self.urdf.to_path_buf(), joint: j.name.clone(), axis: a })
+        Unit::try_new(v, 1e-12).ok_or_else(|| Error::BadAxis {
+            urdf: self.urdf.to_path_buf(),
+            joint: j.name.clone(),
+            axis: a,
+        })
     }
 
     /// Revolute joints need finite `lower < upper`; continuous joints get ±∞. Both need a finite,
@@ -221,24 +292,49 @@ impl Context<'_> {
                 return Err(bad("upper", l.upper, "must be a finite number (rad)"));
             }
             if l.lower >= l.upper {
-                return Err(bad("lower", l.lower, "must be below `upper` (missing <limit>, or inverted)"));
+                return Err(bad(
+                    "lower",
+                    l.lower,
+                    "must be below `upper` (missing <limit>, or inverted)",
+                ));
             }
             (l.lower, l.upper)
         };
         if !(l.velocity.is_finite() && l.velocity > 0.0) {
-            return Err(bad("velocity", l.velocity, "must be a finite positive number (rad/s)"));
+            return Err(bad(
+                "velocity",
+                l.velocity,
+                "must be a finite positive number (rad/s)",
+            ));
         }
-        Ok(JointLimit { lower, upper, velocity: l.velocity })
+        Ok(JointLimit {
+            lower,
+            upper,
+            velocity: l.velocity,
+        })
     }
 
     /// All `<collision>` geometry of a link merged in the link frame; the `<visual>` geometry
     /// when the link has no collision element.
     fn link_mesh(&self, link: &urdf_rs::Link) -> Result<Option<TriMesh>> {
-        let (kind, elements): (&str, Vec<(&urdf_rs::Pose, &urdf_rs::Geometry)>) = if link.collision.is_empty() {
-            ("visual", link.visual.iter().map(|v| (&v.origin, &v.geometry)).collect())
-        } else {
-            ("collision", link.collision.iter().map(|c| (&c.origin, &c.geometry)).collect())
-        };
+        let (kind, elements): (&str, Vec<(&urdf_rs::Pose, &urdf_rs::Geometry)>) =
+            if link.collision.is_empty() {
+                (
+                    "visual",
+                    link.visual
+                        .iter()
+                        .map(|v| (&v.origin, &v.geometry))
+                        .collect(),
+                )
+            } else {
+                (
+                    "collision",
+                    link.collision
+                        .iter()
+                        .map(|c| (&c.origin, &c.geometry))
+                        .collect(),
+                )
+            };
         if elements.is_empty() {
             return Ok(None);
         }
@@ -259,7 +355,12 @@ impl Context<'_> {
             if v.is_finite() && v > 0.0 {
                 Ok(v)
             } else {
-                Err(Error::NonFinite { urdf: self.urdf.to_path_buf(), element: element.to_string(), field, value: vec![v] })
+                Err(Error::NonFinite {
+                    urdf: self.urdf.to_path_buf(),
+                    element: element.to_string(),
+                    field,
+                    value: vec![v],
+                })
             }
         };
         Ok(match g {
@@ -276,9 +377,21 @@ impl Context<'_> {
             }
             G::Capsule { radius, length } => {
                 let (r, l) = (positive("radius", *radius)?, positive("length", *length)?);
-                TriMesh::rounded_cylinder(r, -l / 2.0, l / 2.0, true, true, PRIMITIVE_SEGMENTS, PRIMITIVE_RINGS)
+                TriMesh::rounded_cylinder(
+                    r,
+                    -l / 2.0,
+                    l / 2.0,
+                    true,
+                    true,
+                    PRIMITIVE_SEGMENTS,
+                    PRIMITIVE_RINGS,
+                )
             }
-            G::Sphere { radius } => TriMesh::sphere(positive("radius", *radius)?, PRIMITIVE_SEGMENTS, PRIMITIVE_RINGS),
+            G::Sphere { radius } => TriMesh::sphere(
+                positive("radius", *radius)?,
+                PRIMITIVE_SEGMENTS,
+                PRIMITIVE_RINGS,
+            ),
             G::Mesh { filename, scale } => {
                 let path = self.resolve_mesh(filename);
                 let mut file = std::fs::File::open(&path).map_err(|source| Error::MissingMesh {
@@ -294,9 +407,14 @@ impl Context<'_> {
                     path: path.clone(),
                     message,
                 };
-                let is_stl = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("stl"));
+                let is_stl = path
+                    .extension()
+                    .and_then(|e| e.to_str())
+                    .is_some_and(|e| e.eq_ignore_ascii_case("stl"));
                 if !is_stl {
-                    return Err(bad_mesh("unsupported mesh format, only STL (.stl) is read".into()));
+                    return Err(bad_mesh(
+                        "unsupported mesh format, only STL (.stl) is read".into(),
+                    ));
                 }
                 let mut mesh = TriMesh::read_stl(&mut file).map_err(bad_mesh)?;
                 if let Some(s) = scale {
@@ -325,12 +443,20 @@ impl Context<'_> {
         }
         let path = uri.strip_prefix("file://").unwrap_or(uri);
         let path = Path::new(path);
-        if path.is_absolute() { path.to_path_buf() } else { self.dir.join(path) }
+        if path.is_absolute() {
+            path.to_path_buf()
+        } else {
+            self.dir.join(path)
+        }
     }
 }
 
 /// Link names from the root to `link`, root first; `None` when following parents loops.
-fn path_to_root<'a>(parent_joint: &HashMap<&'a str, &'a urdf_rs::Joint>, link: &'a str, max: usize) -> Option<Vec<&'a str>> {
+fn path_to_root<'a>(
+    parent_joint: &HashMap<&'a str, &'a urdf_rs::Joint>,
+    link: &'a str,
+    max: usize,
+) -> Option<Vec<&'a str>> {
     let mut chain = vec![link];
     let mut cur = link;
     while let Some(j) = parent_joint.get(cur) {

@@ -5,7 +5,8 @@
 mod common;
 
 use cowork_robot::{
-    damped_pseudo_inverse, damped_pseudo_inverse_3, null_space_projector, Jacobian, LinkPoses, PositionJacobian,
+    Jacobian, LinkPoses, PositionJacobian, damped_pseudo_inverse, damped_pseudo_inverse_3,
+    null_space_projector,
 };
 use nalgebra::Point3;
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -45,7 +46,9 @@ fn allocations() -> usize {
 fn kinematics_per_call_allocate_nothing() {
     let model = common::lwr();
     let mut rng = common::rng(9);
-    let mut qs: Vec<_> = (0..10_000).map(|_| common::random_q(&model, &mut rng)).collect();
+    let mut qs: Vec<_> = (0..10_000)
+        .map(|_| common::random_q(&model, &mut rng))
+        .collect();
     // Singular configurations take the eigen-decomposition path of the undamped inverse.
     qs[1] = cowork_robot::JointVector::zeros();
     qs[3][3] = 0.0;

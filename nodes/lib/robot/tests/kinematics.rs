@@ -4,8 +4,8 @@ mod common;
 
 use common::{lwr, other, random_q, rng};
 use cowork_robot::{
-    damped_pseudo_inverse, damped_pseudo_inverse_3, null_space_projector, Jacobian, JointVector, LinkPoses,
-    PositionJacobian, RobotModel, DOF,
+    DOF, Jacobian, JointVector, LinkPoses, PositionJacobian, RobotModel, damped_pseudo_inverse,
+    damped_pseudo_inverse_3, null_space_projector,
 };
 use nalgebra::{Point3, Vector3};
 use rand::Rng;
@@ -18,8 +18,15 @@ fn lwr_description_matches_the_thesis() {
     assert_eq!(
         links,
         [
-            "lwr_base_link", "lwr_link_1", "lwr_link_2", "lwr_link_3", "lwr_link_4", "lwr_link_5", "lwr_link_6",
-            "lwr_link_7", "lwr_ee_link"
+            "lwr_base_link",
+            "lwr_link_1",
+            "lwr_link_2",
+            "lwr_link_3",
+            "lwr_link_4",
+            "lwr_link_5",
+            "lwr_link_6",
+            "lwr_link_7",
+            "lwr_ee_link"
         ]
     );
     assert_eq!(m.tip_link(), 8);
@@ -41,7 +48,10 @@ fn lwr_description_matches_the_thesis() {
     let n = m.mesh_vertex_count();
     assert!((3000..=6000).contains(&n), "{n} vertices");
     for l in 0..m.link_count() {
-        assert!(m.link_mesh(l).is_some_and(|mesh| !mesh.is_empty()), "link {l} has no mesh");
+        assert!(
+            m.link_mesh(l).is_some_and(|mesh| !mesh.is_empty()),
+            "link {l} has no mesh"
+        );
     }
 }
 
@@ -69,8 +79,18 @@ fn zero_configuration_stacks_the_offsets() {
     let wrist = elbow + 0.39;
     let flange = wrist + 0.078;
     let tool = flange + 0.1;
-    for (name, h) in [("lwr_link_2", shoulder), ("lwr_link_4", elbow), ("lwr_link_6", wrist), ("lwr_link_7", flange), ("lwr_ee_link", tool)] {
-        assert!((z(name) - Vector3::new(0.0, 0.0, h)).norm() < 1e-12, "{name} at {}", z(name));
+    for (name, h) in [
+        ("lwr_link_2", shoulder),
+        ("lwr_link_4", elbow),
+        ("lwr_link_6", wrist),
+        ("lwr_link_7", flange),
+        ("lwr_ee_link", tool),
+    ] {
+        assert!(
+            (z(name) - Vector3::new(0.0, 0.0, h)).norm() < 1e-12,
+            "{name} at {}",
+            z(name)
+        );
     }
     assert!(poses.get(m.tip_link()).rotation.angle() < 1e-12);
 }
@@ -95,7 +115,12 @@ fn link_pose_equals_forward_kinematics() {
             m.forward_kinematics(&q, &mut poses);
             for l in 0..m.link_count() {
                 let a = m.link_pose(&q, l);
-                assert!((a.to_homogeneous() - poses.get(l).to_homogeneous()).abs().max() < 1e-12);
+                assert!(
+                    (a.to_homogeneous() - poses.get(l).to_homogeneous())
+                        .abs()
+                        .max()
+                        < 1e-12
+                );
             }
         }
     }
@@ -103,7 +128,12 @@ fn link_pose_equals_forward_kinematics() {
 
 /// Central finite differences of the pose of a point on a link: position rows from the point,
 /// angular rows from the rotation difference `log(R(q+h) R(q−h)ᵀ) / 2h`.
-fn finite_difference_jacobian(m: &RobotModel, q: &JointVector, link: usize, p: &Point3<f64>) -> Jacobian {
+fn finite_difference_jacobian(
+    m: &RobotModel,
+    q: &JointVector,
+    link: usize,
+    p: &Point3<f64>,
+) -> Jacobian {
     let h = 1e-6;
     let mut jac = Jacobian::zeros();
     for j in 0..DOF {
@@ -129,7 +159,11 @@ fn jacobian_matches_finite_differences_at_any_point_of_any_link() {
         for _ in 0..300 {
             let q = random_q(&m, &mut r);
             let link = r.random_range(0..m.link_count());
-            let p = Point3::new(r.random_range(-0.2..0.2), r.random_range(-0.2..0.2), r.random_range(-0.2..0.3));
+            let p = Point3::new(
+                r.random_range(-0.2..0.2),
+                r.random_range(-0.2..0.2),
+                r.random_range(-0.2..0.3),
+            );
             m.forward_kinematics(&q, &mut poses);
             m.jacobian(&poses, link, &p, &mut jac);
             let fd = finite_difference_jacobian(&m, &q, link, &p);
@@ -176,7 +210,9 @@ fn pseudo_inverse_properties() {
         // J†_λ − J† = O(λ² |J†|³).
         assert!((small - pinv).abs().max() < 1e-9 + 1e-13 * s.powi(3));
         // The explicit formula.
-        let a = (jac * jac.transpose() + nalgebra::Matrix6::identity() * 0.01).try_inverse().unwrap();
+        let a = (jac * jac.transpose() + nalgebra::Matrix6::identity() * 0.01)
+            .try_inverse()
+            .unwrap();
         assert!((damped - jac.transpose() * a).abs().max() < 1e-10);
 
         // The 3-row variant for link points.
@@ -230,7 +266,14 @@ fn undamped_pseudo_inverse_at_a_numerically_singular_jacobian_is_the_svd_one() {
         m.jacobian(&poses, m.tip_link(), &Point3::origin(), &mut jac);
         let pinv = damped_pseudo_inverse(&jac, 0.0);
         let reference = jac.pseudo_inverse(1e-7).unwrap();
-        assert!((pinv - reference).abs().max() < 1e-6, "{} sv {} pinv {} ref {}", (pinv - reference).abs().max(), jac.singular_values(), pinv.norm(), reference.norm());
+        assert!(
+            (pinv - reference).abs().max() < 1e-6,
+            "{} sv {} pinv {} ref {}",
+            (pinv - reference).abs().max(),
+            jac.singular_values(),
+            pinv.norm(),
+            reference.norm()
+        );
         assert!((jac * pinv * jac - jac).abs().max() < 1e-9);
     }
 }
@@ -240,8 +283,16 @@ fn another_seven_dof_urdf_loads_with_its_own_structure() {
     let m = other();
     let links: Vec<&str> = m.link_names().iter().map(String::as_str).collect();
     // The camera branch is off the chain; fixed links stay as frames.
-    assert_eq!(links, ["world", "base", "a", "b", "c", "c_mount", "d", "e", "f", "g", "tool"]);
-    assert_eq!(m.joint_names().as_slice(), ["j1", "j2", "j3", "j4", "j5", "j6", "j7"]);
+    assert_eq!(
+        links,
+        [
+            "world", "base", "a", "b", "c", "c_mount", "d", "e", "f", "g", "tool"
+        ]
+    );
+    assert_eq!(
+        m.joint_names().as_slice(),
+        ["j1", "j2", "j3", "j4", "j5", "j6", "j7"]
+    );
     let l3 = m.joint_limits()[2];
     assert!(l3.lower == f64::NEG_INFINITY && l3.upper == f64::INFINITY && l3.velocity == 3.0);
     assert!(l3.contains(1e9));
@@ -253,9 +304,19 @@ fn another_seven_dof_urdf_loads_with_its_own_structure() {
     let d = m.link_mesh(m.link_index("d").unwrap()).unwrap();
     assert_eq!(d.vertices.len(), 4);
     assert!(d.signed_volume() > 0.0);
-    assert!(d.vertices.iter().any(|v| (v.y + 0.1).abs() < 1e-7), "scale y = -1 mirrors the wedge");
-    let (lo, hi) = m.link_mesh(m.link_index("c").unwrap()).unwrap().aabb().unwrap();
-    assert!((lo.x - 0.0).abs() < 1e-9 && (hi.x - 0.3).abs() < 1e-9, "{lo} {hi}");
+    assert!(
+        d.vertices.iter().any(|v| (v.y + 0.1).abs() < 1e-7),
+        "scale y = -1 mirrors the wedge"
+    );
+    let (lo, hi) = m
+        .link_mesh(m.link_index("c").unwrap())
+        .unwrap()
+        .aabb()
+        .unwrap();
+    assert!(
+        (lo.x - 0.0).abs() < 1e-9 && (hi.x - 0.3).abs() < 1e-9,
+        "{lo} {hi}"
+    );
 
     // Zero pose: product of the origins (checked against a hand computation of the first two).
     let mut poses = LinkPoses::new();
@@ -263,10 +324,11 @@ fn another_seven_dof_urdf_loads_with_its_own_structure() {
     let base = poses.get(1);
     assert!((base.translation.vector - Vector3::new(0.1, -0.2, 0.05)).norm() < 1e-15);
     let a = poses.get(2);
-    let expected = base * nalgebra::Isometry3::from_parts(
-        nalgebra::Translation3::new(0.0, 0.0, 0.05),
-        nalgebra::UnitQuaternion::from_euler_angles(0.1, 0.0, 0.0),
-    );
+    let expected = base
+        * nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(0.0, 0.0, 0.05),
+            nalgebra::UnitQuaternion::from_euler_angles(0.1, 0.0, 0.0),
+        );
     assert!((a.to_homogeneous() - expected.to_homogeneous()).abs().max() < 1e-15);
 }
 
