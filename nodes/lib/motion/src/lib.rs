@@ -24,6 +24,7 @@ pub mod error;
 pub mod gmm;
 pub mod gmr;
 pub mod hmm;
+pub mod invariants;
 pub mod lasa;
 pub mod model;
 pub mod csv_io;
