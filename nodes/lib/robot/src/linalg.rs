@@ -23,11 +23,15 @@ use nalgebra::{Matrix3, Matrix6, SMatrix};
 /// blown up. Both paths are allocation-free; the eigen path costs a few times more.
 ///
 /// `damping` must be finite and ≥ 0 (units of J's entries; the position rows are m/rad, so mixing
-/// rows makes λ a compromise); a NaN anywhere gives NaN out.
+/// rows makes λ a compromise); a NaN or ∞ in `J` or `damping` gives an all-NaN result.
 pub fn damped_pseudo_inverse(j: &Jacobian, damping: f64) -> JacobianPinv {
     let mut a: Matrix6<f64> = j * j.transpose();
     for i in 0..6 {
         a[(i, i)] += damping * damping;
+    }
+    // The iterative eigen solver is not meant for NaN/∞; answer NaN at once.
+    if !a.iter().all(|x| x.is_finite()) {
+        return JacobianPinv::from_element(f64::NAN);
     }
     let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) {
         a.cholesky()
@@ -53,6 +57,10 @@ pub fn damped_pseudo_inverse_3(j: &PositionJacobian, damping: f64) -> PositionJa
     let mut a: Matrix3<f64> = j * j.transpose();
     for i in 0..3 {
         a[(i, i)] += damping * damping;
+    }
+    // The iterative eigen solver is not meant for NaN/∞; answer NaN at once.
+    if !a.iter().all(|x| x.is_finite()) {
+        return PositionJacobianPinv::from_element(f64::NAN);
     }
     let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) {
         a.cholesky()

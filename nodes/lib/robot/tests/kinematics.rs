@@ -348,3 +348,26 @@ fn clamp_to_limits_respects_each_joint() {
         assert_eq!(c[i], m.joint_limits()[i].upper);
     }
 }
+
+#[test]
+fn non_finite_jacobians_give_nan_not_a_hang() {
+    for bad in [f64::NAN, f64::INFINITY] {
+        let mut jac = Jacobian::from_element(0.3);
+        jac[(2, 4)] = bad;
+        for damping in [0.0, 1e-9, 0.05, f64::NAN] {
+            let p = damped_pseudo_inverse(&jac, damping);
+            assert!(p.iter().all(|x| x.is_nan()), "{bad} λ {damping}");
+            let mut pj = PositionJacobian::from_element(0.3);
+            pj[(1, 1)] = bad;
+            assert!(damped_pseudo_inverse_3(&pj, damping).iter().all(|x| x.is_nan()));
+        }
+    }
+    // NaN joint positions propagate into the poses of the links they move, not before.
+    let m = lwr();
+    let mut q = JointVector::zeros();
+    q[2] = f64::NAN;
+    let mut poses = LinkPoses::new();
+    m.forward_kinematics(&q, &mut poses);
+    assert!(poses.get(2).translation.vector.iter().all(|x| x.is_finite()));
+    assert!(poses.get(3).rotation.coords.iter().any(|x| x.is_nan()));
+}
