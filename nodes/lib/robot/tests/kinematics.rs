@@ -359,7 +359,11 @@ fn non_finite_jacobians_give_nan_not_a_hang() {
             assert!(p.iter().all(|x| x.is_nan()), "{bad} λ {damping}");
             let mut pj = PositionJacobian::from_element(0.3);
             pj[(1, 1)] = bad;
-            assert!(damped_pseudo_inverse_3(&pj, damping).iter().all(|x| x.is_nan()));
+            assert!(
+                damped_pseudo_inverse_3(&pj, damping)
+                    .iter()
+                    .all(|x| x.is_nan())
+            );
         }
     }
     // NaN joint positions propagate into the poses of the links they move, not before.
@@ -368,6 +372,13 @@ fn non_finite_jacobians_give_nan_not_a_hang() {
     q[2] = f64::NAN;
     let mut poses = LinkPoses::new();
     m.forward_kinematics(&q, &mut poses);
-    assert!(poses.get(2).translation.vector.iter().all(|x| x.is_finite()));
+    assert!(
+        poses
+            .get(2)
+            .translation
+            .vector
+            .iter()
+            .all(|x| x.is_finite())
+    );
     assert!(poses.get(3).rotation.coords.iter().any(|x| x.is_nan()));
 }

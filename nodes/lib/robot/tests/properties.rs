@@ -2,7 +2,7 @@
 
 mod common;
 
-use cowork_robot::{damped_pseudo_inverse, null_space_projector, Jacobian, JointVector, LinkPoses};
+use cowork_robot::{Jacobian, JointVector, LinkPoses, damped_pseudo_inverse, null_space_projector};
 use nalgebra::Point3;
 use proptest::prelude::*;
 
