@@ -258,6 +258,28 @@ mod tests {
     }
 
     #[test]
+    fn dhb_file_round_trip() {
+        use crate::dhb::{Dhb, Poses};
+        let n = 20;
+        let p: Vec<_> = (0..n).map(|i| { let t = i as f64 * 0.1; Vector3::new(t.cos(), t.sin(), 0.1 * t) }).collect();
+        let r: Vec<_> = (0..n).map(|i| Rotation3::from_euler_angles(0.1 * i as f64, 0.02 * (i * i) as f64, 0.0)).collect();
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
+        let dhb = Dhb::from_poses(&Poses { p: p.clone(), r }).expect("dhb");
+        let path = write("inv.csv", "");
+        write_dhb(&path, &t, &dhb).expect("write");
+        let (tt, t_end, back) = read_dhb(&path).expect("read");
+        // N poses → N − 1 differences → N − 3 rows; the reconstruction has N − 2 poses.
+        assert_eq!(tt.len(), n - 3);
+        assert!((t_end - t[n - 3]).abs() < 1e-12);
+        let rec = back.reconstruct_poses(1.0, &Rotation3::identity(), &Vector3::zeros());
+        for (a, b) in rec.p.iter().zip(&p) {
+            assert!((a - b).norm() < 1e-12);
+        }
+        std::fs::write(&path, "t,m_l\n0,1\n").expect("w");
+        assert!(read_dhb(&path).is_err());
+    }
+
+    #[test]
     fn trajectory_round_trip() {
         let tr = Trajectory { dim: 1, t: vec![0.0, 0.1], pos: vec![1.0, 2.0], vel: vec![0.5, 0.25], reached: false };
         let p = write("out.csv", "");
@@ -266,4 +288,82 @@ mod tests {
         assert_eq!(d.pos, tr.pos);
         assert_eq!(d.vel, tr.vel);
     }
+}
+
+/// Column names of a DHB invariant file.
+pub const DHB_HEADER: [&str; 7] = ["t", "m_l", "theta1_l", "theta2_l", "m_a", "theta1_a", "theta2_a"];
+
+fn fmt_list(v: &[f64]) -> String {
+    v.iter().map(|x| format!("{x:.17e}")).collect::<Vec<_>>().join(",")
+}
+
+/// Writes position-based DHB invariants with the sample times of the rows (`t_end` is the time
+/// of the last reconstructed pose); the initial pose and
+/// frames needed to reconstruct go into a `# dhb …` comment line.
+pub fn write_dhb(path: &Path, t: &[f64], dhb: &crate::dhb::Dhb) -> Result<()> {
+    let q = UnitQuaternion::from_rotation_matrix(&dhb.r0);
+    let t_end = t.get(dhb.linear.rows.len()).copied().unwrap_or(f64::NAN);
+    let comment = format!(
+        "dhb p0={} r0={} linear_frame={} angular_frame={} t_end={:.17e}",
+        fmt_list(dhb.p0.as_slice()),
+        fmt_list(&[q.w, q.i, q.j, q.k]),
+        fmt_list(dhb.linear.frame0.as_slice()),
+        fmt_list(dhb.angular.frame0.as_slice()),
+        t_end
+    );
+    let header: Vec<String> = DHB_HEADER.iter().map(|s| s.to_string()).collect();
+    let rows = dhb.rows();
+    write_table(
+        path,
+        &header,
+        rows.iter().enumerate().map(|(i, r)| {
+            let mut v = vec![t.get(i).copied().unwrap_or(i as f64)];
+            v.extend_from_slice(r);
+            v
+        }),
+        &[comment],
+    )
+}
+
+/// Reads a file written by [`write_dhb`]; returns the row times, the end time and the invariants.
+pub fn read_dhb(path: &Path) -> Result<(Vec<f64>, f64, crate::dhb::Dhb)> {
+    use crate::dhb::{Dhb, DhbKind, VectorInvariants};
+    use nalgebra::Matrix3;
+    let text = std::fs::read_to_string(path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })?;
+    let (line_no, line) = text
+        .lines()
+        .enumerate()
+        .find(|(_, l)| l.starts_with("# dhb "))
+        .ok_or_else(|| csv_err(path, 1, "-", "missing `# dhb p0=… r0=… linear_frame=… angular_frame=…` line"))?;
+    let row = line_no + 1;
+    let field = |name: &str, n: usize| -> Result<Vec<f64>> {
+        let v = line
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix(&format!("{name}=")))
+            .ok_or_else(|| csv_err(path, row, name, "missing"))?;
+        let vals: Vec<f64> = v.split(',').map(str::parse).collect::<std::result::Result<_, _>>().map_err(|_| csv_err(path, row, name, "not a list of numbers"))?;
+        if vals.len() != n {
+            return Err(csv_err(path, row, name, format!("expected {n} values, got {}", vals.len())));
+        }
+        Ok(vals)
+    };
+    let p0 = field("p0", 3)?;
+    let r0 = field("r0", 4)?;
+    let lf = field("linear_frame", 9)?;
+    let af = field("angular_frame", 9)?;
+    let t_end = field("t_end", 1)?[0];
+    let table = read_table_from(text.as_bytes(), path)?;
+    let header: Vec<String> = DHB_HEADER.iter().map(|s| s.to_string()).collect();
+    expect_columns(path, &table.header, &header, 0)?;
+    let lin = table.rows.iter().map(|r| [r[1], r[2], r[3]]).collect();
+    let ang = table.rows.iter().map(|r| [r[4], r[5], r[6]]).collect();
+    let frame = |v: &[f64]| Matrix3::from_column_slice(v);
+    let dhb = Dhb {
+        kind: DhbKind::Position,
+        linear: VectorInvariants { rows: lin, frame0: frame(&lf) },
+        angular: VectorInvariants { rows: ang, frame0: frame(&af) },
+        p0: Vector3::new(p0[0], p0[1], p0[2]),
+        r0: rotation_from_wxyz([r0[0], r0[1], r0[2], r0[3]]),
+    };
+    Ok((table.rows.iter().map(|r| r[0]).collect(), t_end, dhb))
 }
