@@ -170,7 +170,9 @@ impl Cgmr {
     /// Learns GMR (EM, optionally BIC) and the C-GMR extras from the demonstrations.
     pub fn fit(demos: &[Demonstration], components: Components, em: &EmConfig, step: usize, cfg: &CgmrConfig) -> Result<Self> {
         let (ds, _) = fit_gmr_ds(demos, components, em, step)?;
-        Self::from_gmr_ds(ds, demos, cfg)
+        // δ_k from the same (subsampled) training positions EM saw, as in Sec. 3.1.3.
+        let training: Vec<Demonstration> = demos.iter().map(|d| d.subsampled(step)).collect();
+        Self::from_gmr_ds(ds, &training, cfg)
     }
 
     /// Adds the C-GMR extras (gains, `δ_k`, `B_r`, `t_max`) to a learned GMR DS.
@@ -191,7 +193,8 @@ impl Cgmr {
         let data = ds_training_data(demos, &target, step)?;
         let fit = Gmm::fit_from(&data, self.ds.gmr.gmm(), em)?;
         self.ds = GmrDs::new(fit.gmm, target)?;
-        self.compute_extras(demos)
+        let training: Vec<Demonstration> = demos.iter().map(|d| d.subsampled(step)).collect();
+        self.compute_extras(&training)
     }
 
     fn compute_extras(&mut self, demos: &[Demonstration]) -> Result<()> {

@@ -209,8 +209,9 @@ pub fn evaluate_motion(name: &str, demos: &[Demonstration], opts: &LasaOptions) 
     let _ = fit_gmr_ds(demos, Components::Fixed(k), &em, opts.subsample)?;
     let train_fixed_k_ms = t0.elapsed().as_secs_f64() * 1e3;
     drop(sel);
+    let training: Vec<Demonstration> = demos.iter().map(|d| d.subsampled(opts.subsample)).collect();
     let t0 = Instant::now();
-    let cgmr = Cgmr::from_gmr_ds(ds.clone(), demos, &opts.cgmr)?;
+    let cgmr = Cgmr::from_gmr_ds(ds.clone(), &training, &opts.cgmr)?;
     let cgmr_extra_ms = t0.elapsed().as_secs_f64() * 1e3;
     let starts = random_starts(demos, opts.random_starts, opts.seed ^ 0x5eed);
     let goal = ds.target.clone();
