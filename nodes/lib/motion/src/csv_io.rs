@@ -213,83 +213,6 @@ pub fn rotation_from_wxyz(q: [f64; 4]) -> Rotation3<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3])).to_rotation_matrix()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn write(name: &str, text: &str) -> std::path::PathBuf {
-        let dir = std::env::temp_dir().join(format!("cowork_motion_csv_{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("dir");
-        let p = dir.join(name);
-        std::fs::write(&p, text).expect("write");
-        p
-    }
-
-    fn err_text(r: Result<Demonstration>) -> String {
-        match r {
-            Err(e) => e.to_string(),
-            Ok(_) => "no error".into(),
-        }
-    }
-
-    #[test]
-    fn reads_demos_with_and_without_velocities() {
-        let d = read_demonstration(&write("a.csv", "t,x0,x1\n0,0,0\n1,1,2\n2,2,4\n")).expect("demo");
-        assert_eq!(d.dim, 2);
-        assert_eq!(d.velocity(1), &[1.0, 2.0]);
-        let d = read_demonstration(&write("b.csv", "t,x0,v0\n0,0,5\n1,1,6\n")).expect("demo");
-        assert_eq!(d.velocity(0), &[5.0]);
-    }
-
-    #[test]
-    fn bad_files_name_file_row_and_column() {
-        let e = err_text(read_demonstration(&write("nan.csv", "t,x0,x1\n0,0,0\n1,NaN,2\n")));
-        assert!(e.contains("nan.csv") && e.contains("row 3") && e.contains("column x0"), "{e}");
-        let e = err_text(read_demonstration(&write("ragged.csv", "t,x0,x1\n0,0,0\n1,1\n")));
-        assert!(e.contains("ragged.csv") && e.contains("row 3"), "{e}");
-        let e = err_text(read_demonstration(&write("one.csv", "t,x0\n0,0\n")));
-        assert!(e.contains("one.csv") && e.contains("at least 2"), "{e}");
-        let e = err_text(read_demonstration(&write("hdr.csv", "t,x0,y1\n0,0,0\n1,1,1\n")));
-        assert!(e.contains("hdr.csv") && e.contains("row 1"), "{e}");
-        let e = err_text(read_demonstration(&write("time.csv", "t,x0\n0,0\n0,1\n")));
-        assert!(e.contains("row 3") && e.contains("column t"), "{e}");
-        let e = err_text(read_demonstration(&write("word.csv", "t,x0\n0,0\n1,abc\n")));
-        assert!(e.contains("`abc` is not a number"), "{e}");
-    }
-
-    #[test]
-    fn dhb_file_round_trip() {
-        use crate::dhb::{Dhb, Poses};
-        let n = 20;
-        let p: Vec<_> = (0..n).map(|i| { let t = i as f64 * 0.1; Vector3::new(t.cos(), t.sin(), 0.1 * t) }).collect();
-        let r: Vec<_> = (0..n).map(|i| Rotation3::from_euler_angles(0.1 * i as f64, 0.02 * (i * i) as f64, 0.0)).collect();
-        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
-        let dhb = Dhb::from_poses(&Poses { p: p.clone(), r }).expect("dhb");
-        let path = write("inv.csv", "");
-        write_dhb(&path, &t, &dhb).expect("write");
-        let (tt, t_end, back) = read_dhb(&path).expect("read");
-        // N poses → N − 1 differences → N − 3 rows; the reconstruction has N − 2 poses.
-        assert_eq!(tt.len(), n - 3);
-        assert!((t_end - t[n - 3]).abs() < 1e-12);
-        let rec = back.reconstruct_poses(1.0, &Rotation3::identity(), &Vector3::zeros());
-        for (a, b) in rec.p.iter().zip(&p) {
-            assert!((a - b).norm() < 1e-12);
-        }
-        std::fs::write(&path, "t,m_l\n0,1\n").expect("w");
-        assert!(read_dhb(&path).is_err());
-    }
-
-    #[test]
-    fn trajectory_round_trip() {
-        let tr = Trajectory { dim: 1, t: vec![0.0, 0.1], pos: vec![1.0, 2.0], vel: vec![0.5, 0.25], reached: false };
-        let p = write("out.csv", "");
-        write_trajectory(&p, &tr).expect("write");
-        let d = read_demonstration(&p).expect("read");
-        assert_eq!(d.pos, tr.pos);
-        assert_eq!(d.vel, tr.vel);
-    }
-}
-
 /// Column names of a DHB invariant file.
 pub const DHB_HEADER: [&str; 7] = ["t", "m_l", "theta1_l", "theta2_l", "m_a", "theta1_a", "theta2_a"];
 
@@ -366,4 +289,81 @@ pub fn read_dhb(path: &Path) -> Result<(Vec<f64>, f64, crate::dhb::Dhb)> {
         r0: rotation_from_wxyz([r0[0], r0[1], r0[2], r0[3]]),
     };
     Ok((table.rows.iter().map(|r| r[0]).collect(), t_end, dhb))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, text: &str) -> std::path::PathBuf {
+        let dir = std::env::temp_dir().join(format!("cowork_motion_csv_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let p = dir.join(name);
+        std::fs::write(&p, text).expect("write");
+        p
+    }
+
+    fn err_text(r: Result<Demonstration>) -> String {
+        match r {
+            Err(e) => e.to_string(),
+            Ok(_) => "no error".into(),
+        }
+    }
+
+    #[test]
+    fn reads_demos_with_and_without_velocities() {
+        let d = read_demonstration(&write("a.csv", "t,x0,x1\n0,0,0\n1,1,2\n2,2,4\n")).expect("demo");
+        assert_eq!(d.dim, 2);
+        assert_eq!(d.velocity(1), &[1.0, 2.0]);
+        let d = read_demonstration(&write("b.csv", "t,x0,v0\n0,0,5\n1,1,6\n")).expect("demo");
+        assert_eq!(d.velocity(0), &[5.0]);
+    }
+
+    #[test]
+    fn bad_files_name_file_row_and_column() {
+        let e = err_text(read_demonstration(&write("nan.csv", "t,x0,x1\n0,0,0\n1,NaN,2\n")));
+        assert!(e.contains("nan.csv") && e.contains("row 3") && e.contains("column x0"), "{e}");
+        let e = err_text(read_demonstration(&write("ragged.csv", "t,x0,x1\n0,0,0\n1,1\n")));
+        assert!(e.contains("ragged.csv") && e.contains("row 3"), "{e}");
+        let e = err_text(read_demonstration(&write("one.csv", "t,x0\n0,0\n")));
+        assert!(e.contains("one.csv") && e.contains("at least 2"), "{e}");
+        let e = err_text(read_demonstration(&write("hdr.csv", "t,x0,y1\n0,0,0\n1,1,1\n")));
+        assert!(e.contains("hdr.csv") && e.contains("row 1"), "{e}");
+        let e = err_text(read_demonstration(&write("time.csv", "t,x0\n0,0\n0,1\n")));
+        assert!(e.contains("row 3") && e.contains("column t"), "{e}");
+        let e = err_text(read_demonstration(&write("word.csv", "t,x0\n0,0\n1,abc\n")));
+        assert!(e.contains("`abc` is not a number"), "{e}");
+    }
+
+    #[test]
+    fn dhb_file_round_trip() {
+        use crate::dhb::{Dhb, Poses};
+        let n = 20;
+        let p: Vec<_> = (0..n).map(|i| { let t = i as f64 * 0.1; Vector3::new(t.cos(), t.sin(), 0.1 * t) }).collect();
+        let r: Vec<_> = (0..n).map(|i| Rotation3::from_euler_angles(0.1 * i as f64, 0.02 * (i * i) as f64, 0.0)).collect();
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
+        let dhb = Dhb::from_poses(&Poses { p: p.clone(), r }).expect("dhb");
+        let path = write("inv.csv", "");
+        write_dhb(&path, &t, &dhb).expect("write");
+        let (tt, t_end, back) = read_dhb(&path).expect("read");
+        // N poses → N − 1 differences → N − 3 rows; the reconstruction has N − 2 poses.
+        assert_eq!(tt.len(), n - 3);
+        assert!((t_end - t[n - 3]).abs() < 1e-12);
+        let rec = back.reconstruct_poses(1.0, &Rotation3::identity(), &Vector3::zeros());
+        for (a, b) in rec.p.iter().zip(&p) {
+            assert!((a - b).norm() < 1e-12);
+        }
+        std::fs::write(&path, "t,m_l\n0,1\n").expect("w");
+        assert!(read_dhb(&path).is_err());
+    }
+
+    #[test]
+    fn trajectory_round_trip() {
+        let tr = Trajectory { dim: 1, t: vec![0.0, 0.1], pos: vec![1.0, 2.0], vel: vec![0.5, 0.25], reached: false };
+        let p = write("out.csv", "");
+        write_trajectory(&p, &tr).expect("write");
+        let d = read_demonstration(&p).expect("read");
+        assert_eq!(d.pos, tr.pos);
+        assert_eq!(d.vel, tr.vel);
+    }
 }

@@ -53,10 +53,10 @@ impl DmpConfig {
                 return Err(invalid(name, format!("must be finite and > 0, got {v}")));
             }
         }
-        if let Some(d) = self.damping {
-            if !(d >= 0.0) || !d.is_finite() {
-                return Err(invalid("damping", format!("must be finite and >= 0, got {d}")));
-            }
+        if let Some(d) = self.damping
+            && (!(d >= 0.0) || !d.is_finite())
+        {
+            return Err(invalid("damping", format!("must be finite and >= 0, got {d}")));
         }
         if !(self.ridge >= 0.0) || !self.ridge.is_finite() {
             return Err(invalid("ridge", "must be finite and >= 0"));

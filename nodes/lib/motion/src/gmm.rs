@@ -233,7 +233,7 @@ fn check_data(data: &[f64], dim: usize, k: usize) -> Result<()> {
     if dim == 0 {
         return Err(invalid("dim", "must be at least 1"));
     }
-    if data.len() % dim != 0 {
+    if !data.len().is_multiple_of(dim) {
         return Err(MotionError::DimensionMismatch {
             what: "training data length is not a multiple of the dimension".into(),
             expected: dim * (data.len() / dim + 1),

@@ -1,7 +1,7 @@
 //! HMM motion primitives (thesis Algorithm 3, App. A.3.3): left-to-right HMM with Gaussian
 //! outputs learned by Baum–Welch, Viterbi state sequences, a normalised time variable per state,
-//! smooth generation by GMR on time within each state (eq. A.26–A.30). The incremental
-//! refinement of A.3.3 is not provided yet (its weighted Baum–Welch was not reliable).
+//! smooth generation by GMR on time within each state (eq. A.26–A.30), and incremental
+//! refinement with a forgetting factor (A.3.3). Forward–backward runs in log space.
 //!
 //! One Gaussian per state (`M = 1` in eq. A.25). Positions are in the unit of the data; time
 //! steps are the demonstrations' mean sampling period.
@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::demo::{Demonstration, common_dim};
 use crate::ds::Trajectory;
 use crate::error::{MotionError, Result, check_dim, check_finite, invalid};
-use crate::linalg::{LN_2PI, chol_logdet, cholesky, solve_lower};
+use crate::linalg::{LN_2PI, chol_logdet, cholesky, logsumexp, solve_lower};
 
 /// Learning settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -25,7 +25,7 @@ pub struct HmmConfig {
     pub tol: f64,
     /// Added to the covariance diagonals.
     pub reg_covar: f64,
-    /// Forgetting factor `η` reserved for the incremental update of A.3.3 (validated, unused).
+    /// Forgetting factor `η` of the incremental update (weight of the new demonstration).
     pub forgetting: f64,
 }
 
@@ -176,82 +176,60 @@ impl HmmPrimitive {
         }
     }
 
-    /// Scaled forward–backward on emission log-likelihoods `logb` (`T × L`): returns the
-    /// log-likelihood, `γ` (`T × L`) and the expected transition counts (`L × L`).
+    /// Forward–backward in log space on emission log-likelihoods `logb` (`T × L`): returns the
+    /// log-likelihood, `γ` (`T × L`) and the expected transition counts (`L × L`). Log space keeps
+    /// it exact when every reachable state is far from a sample (no underflow floor needed).
     fn forward_backward(&self, logb: &[f64], t_len: usize) -> (f64, Vec<f64>, Vec<f64>) {
         let l = self.l();
-        let mut b = vec![0.0; t_len * l];
-        let mut ll = 0.0;
-        for t in 0..t_len {
-            let row = &logb[t * l..(t + 1) * l];
-            let m = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            ll += m;
-            for i in 0..l {
-                // The floor keeps a path alive when every reachable state is far from the sample.
-                b[t * l + i] = (row[i] - m).max(-600.0).exp();
-            }
+        let ln = |p: f64| if p > 0.0 { p.ln() } else { f64::NEG_INFINITY };
+        let la: Vec<f64> = self.trans.iter().map(|&p| ln(p)).collect();
+        let lp: Vec<f64> = self.prior.iter().map(|&p| ln(p)).collect();
+        let mut alpha = vec![f64::NEG_INFINITY; t_len * l];
+        let mut tmp = vec![0.0; l];
+        for j in 0..l {
+            alpha[j] = lp[j] + logb[j];
         }
-        let mut alpha = vec![0.0; t_len * l];
-        let mut scale = vec![0.0; t_len];
-        for t in 0..t_len {
+        for t in 1..t_len {
             for j in 0..l {
-                let p = if t == 0 { self.prior[j] } else { (0..l).map(|i| alpha[(t - 1) * l + i] * self.trans[i * l + j]).sum() };
-                alpha[t * l + j] = p * b[t * l + j];
-            }
-            let mut s: f64 = alpha[t * l..(t + 1) * l].iter().sum::<f64>();
-            if !(s > 1e-300) {
-                // Every reachable state is far from the sample: floor the emissions so that the
-                // path stays alive (only happens on data far from the model).
-                for j in 0..l {
-                    b[t * l + j] = b[t * l + j].max(1e-200);
-                    let p = if t == 0 { self.prior[j] } else { (0..l).map(|i| alpha[(t - 1) * l + i] * self.trans[i * l + j]).sum() };
-                    alpha[t * l + j] = p * b[t * l + j];
+                for i in 0..l {
+                    tmp[i] = alpha[(t - 1) * l + i] + la[i * l + j];
                 }
-                s = alpha[t * l..(t + 1) * l].iter().sum::<f64>();
-                if !(s > 1e-300) || !s.is_finite() {
-                    // Still no admissible path: restart the recursion from the emissions.
-                    for j in 0..l {
-                        alpha[t * l + j] = b[t * l + j];
-                    }
-                    s = alpha[t * l..(t + 1) * l].iter().sum::<f64>().max(1e-300);
-                }
+                alpha[t * l + j] = logsumexp(&tmp) + logb[t * l + j];
             }
-            scale[t] = s;
-            alpha[t * l..(t + 1) * l].iter_mut().for_each(|v| *v /= s);
-            ll += s.ln();
         }
-        let mut beta = vec![1.0; t_len * l];
+        let ll = logsumexp(&alpha[(t_len - 1) * l..]);
+        let mut beta = vec![0.0; t_len * l];
         for t in (0..t_len - 1).rev() {
             for i in 0..l {
-                beta[t * l + i] = (0..l).map(|j| self.trans[i * l + j] * b[(t + 1) * l + j] * beta[(t + 1) * l + j]).sum::<f64>();
-            }
-            // γ and ξ are normalised per instant, so β may be scaled freely: keep it summing to 1.
-            let s: f64 = beta[t * l..(t + 1) * l].iter().sum();
-            if s > 0.0 {
-                beta[t * l..(t + 1) * l].iter_mut().for_each(|v| *v /= s);
+                for j in 0..l {
+                    tmp[j] = la[i * l + j] + logb[(t + 1) * l + j] + beta[(t + 1) * l + j];
+                }
+                beta[t * l + i] = logsumexp(&tmp);
             }
         }
         let mut gamma = vec![0.0; t_len * l];
         for t in 0..t_len {
-            let s: f64 = (0..l).map(|i| alpha[t * l + i] * beta[t * l + i]).sum::<f64>().max(1e-300);
             for i in 0..l {
-                gamma[t * l + i] = alpha[t * l + i] * beta[t * l + i] / s;
+                tmp[i] = alpha[t * l + i] + beta[t * l + i];
+            }
+            let z = logsumexp(&tmp);
+            for i in 0..l {
+                gamma[t * l + i] = if z.is_finite() { (tmp[i] - z).exp() } else { 0.0 };
             }
         }
         let mut xi = vec![0.0; l * l];
-        for t in 0..t_len.saturating_sub(1) {
-            let mut tmp = vec![0.0; l * l];
-            let mut s = 0.0;
-            for i in 0..l {
-                for j in 0..l {
-                    let v = alpha[t * l + i] * self.trans[i * l + j] * b[(t + 1) * l + j] * beta[(t + 1) * l + j];
-                    tmp[i * l + j] = v;
-                    s += v;
-                }
-            }
-            if s > 0.0 {
-                for (x, v) in xi.iter_mut().zip(&tmp) {
-                    *x += v / s;
+        if ll.is_finite() {
+            for t in 0..t_len.saturating_sub(1) {
+                for i in 0..l {
+                    if alpha[t * l + i] == f64::NEG_INFINITY {
+                        continue;
+                    }
+                    for j in 0..l {
+                        let v = alpha[t * l + i] + la[i * l + j] + logb[(t + 1) * l + j] + beta[(t + 1) * l + j] - ll;
+                        if v > -745.0 {
+                            xi[i * l + j] += v.exp();
+                        }
+                    }
                 }
             }
         }
@@ -346,7 +324,7 @@ impl HmmPrimitive {
     /// Most likely state sequence (log-space Viterbi).
     pub fn viterbi(&self, seq: &[f64]) -> Result<Vec<usize>> {
         let (n, l) = (self.dim, self.l());
-        if seq.len() % n != 0 || seq.is_empty() {
+        if !seq.len().is_multiple_of(n) || seq.is_empty() {
             return Err(MotionError::DimensionMismatch { what: "HMM sequence length vs dimension".into(), expected: n, got: seq.len() % n });
         }
         check_finite("HMM sequence", seq)?;
@@ -527,6 +505,26 @@ impl HmmPrimitive {
         tr.reached = true;
         Ok(tr)
     }
+
+    /// Incremental refinement (App. A.3.3): a weighted Baum–Welch on the new demonstration
+    /// (weight `η`) and the trajectory generated by the current model (weight `1 − η`), starting
+    /// from the current parameters; then the temporal terms are recomputed.
+    pub fn refine(&mut self, demo: &Demonstration) -> Result<()> {
+        check_dim("HMM refinement demonstration", self.dim, demo.dim)?;
+        let generated = self.generate(None, self.dt)?;
+        let seqs: Vec<&[f64]> = vec![demo.pos.as_slice(), generated.pos.as_slice()];
+        let eta = self.config.forgetting;
+        let weights = [eta, 1.0 - eta];
+        let mut prev = f64::NEG_INFINITY;
+        for _ in 0..self.config.max_iter {
+            let (ll, _) = self.baum_welch_step(&seqs, &weights)?;
+            if (ll - prev).abs() < self.config.tol * (demo.len() + generated.len()) as f64 {
+                break;
+            }
+            prev = ll;
+        }
+        self.temporal_terms(&seqs, &weights)
+    }
 }
 
 #[cfg(test)]
@@ -559,5 +557,19 @@ mod tests {
         // Smooth: no step larger than a few demo steps.
         let max_step = (1..tr.len()).map(|i| (0..2).map(|j| (tr.position(i)[j] - tr.position(i - 1)[j]).powi(2)).sum::<f64>().sqrt()).fold(0.0, f64::max);
         assert!(max_step < 0.1, "{max_step}");
+    }
+
+    #[test]
+    fn refinement_blends_the_new_demo_with_the_forgetting_factor() {
+        let eta = 0.7;
+        let mut hmm = HmmPrimitive::fit(&[demo(1.0)], &HmmConfig { states: 6, forgetting: eta, ..Default::default() }).expect("fit");
+        let peak = |h: &HmmPrimitive| h.states.iter().map(|s| s.mean[0]).fold(f64::NEG_INFINITY, f64::max);
+        let before = peak(&hmm);
+        hmm.refine(&demo(1.5)).expect("refine");
+        let after = peak(&hmm);
+        // The x amplitude of the states moves from ≈1.0 to ≈ η·1.5 + (1 − η)·1.0.
+        let want = eta * 1.5 + (1.0 - eta) * before;
+        assert!((after - want).abs() < 0.1, "peak {before} -> {after}, expected ≈ {want}");
+        assert!(hmm.generate(None, 0.01).expect("gen").len() > 100);
     }
 }

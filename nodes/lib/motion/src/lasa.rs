@@ -112,8 +112,14 @@ pub fn load_motion(dir: &Path) -> Result<Vec<Demonstration>> {
     files.iter().map(|f| read_demonstration(f)).collect()
 }
 
+/// A velocity field as a closure: writes `f(x)` into the second argument.
+pub type Field<'a> = dyn FnMut(&[f64], &mut [f64]) -> Result<()> + 'a;
+
+/// Makes a fresh policy for each rollout.
+type PolicyFactory<'a, 'm> = dyn FnMut() -> Result<Box<dyn DsPolicy + 'm>> + 'a;
+
 /// Velocity RMSE `V_e` of a velocity field over all demonstration samples.
-pub fn velocity_rmse(demos: &[Demonstration], f: &mut dyn FnMut(&[f64], &mut [f64]) -> Result<()>) -> Result<f64> {
+pub fn velocity_rmse(demos: &[Demonstration], f: &mut Field<'_>) -> Result<f64> {
     let mut se = 0.0;
     let mut count = 0usize;
     for d in demos {
@@ -173,8 +179,8 @@ pub fn reproduction_area(demos: &[Demonstration], repro: &[Vec<f64>]) -> Result<
 
 fn evaluate_policy<'m>(
     demos: &[Demonstration],
-    make: &mut dyn FnMut() -> Result<Box<dyn DsPolicy + 'm>>,
-    field: &mut dyn FnMut(&[f64], &mut [f64]) -> Result<()>,
+    make: &mut PolicyFactory<'_, 'm>,
+    field: &mut Field<'_>,
     opts: &LasaOptions,
     starts: &[Vec<f64>],
 ) -> Result<Accuracy> {

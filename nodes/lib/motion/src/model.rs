@@ -153,7 +153,7 @@ impl Model {
     /// elsewhere). DMP and HMM are time-driven and have no such field.
     pub fn eval(&self, points: &[f64]) -> Result<Vec<f64>> {
         let n = self.dim();
-        if points.len() % n != 0 {
+        if !points.len().is_multiple_of(n) {
             return Err(MotionError::DimensionMismatch { what: "points vs model dimension".into(), expected: n, got: points.len() % n });
         }
         let mut out = vec![0.0; points.len()];
