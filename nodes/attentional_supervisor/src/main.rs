@@ -1,0 +1,62 @@
+//! `attentional_supervisor`: the attentional supervisor as a ROS 2 node.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use attentional_supervisor::{Params, RunOptions};
+use clap::Parser;
+use cowork_ros::{NodeConfig, RosNode};
+use cowork_supervisor::{Ltm, Supervisor};
+
+/// Attentional supervisor (thesis Sec. 4.3, 5.2): plans the next action from `/robot_stream`,
+/// `/object_stream` and `/speech_command`; publishes `/supervisor/action` and
+/// `/supervisor/working_memory`.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// Long-term memory: schema file in the thesis's notation.
+    #[arg(long)]
+    ltm: PathBuf,
+    /// Task to allocate from the LTM, e.g. `pourDrink`, `prepareCoffee`, `add(water)`.
+    #[arg(long)]
+    task: String,
+    /// Save the LTM here (atomically) whenever teaching attaches actions. Without it learned
+    /// actions are kept in memory only; the input file is never overwritten unless named here.
+    #[arg(long)]
+    save_ltm: Option<PathBuf>,
+    /// ROS 2 parameter file with an `attentional_supervisor: ros__parameters:` block.
+    #[arg(long, default_value = "config/attentional_supervisor.yaml")]
+    params: PathBuf,
+    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
+    #[arg(long)]
+    use_sim_time: bool,
+    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
+    #[arg(long)]
+    duration: Option<f64>,
+}
+
+fn main() -> Result<()> {
+    cowork_ros::init_logging();
+    let args = Args::parse();
+    let mut params: Params = cowork_ros::params::load(&args.params, "attentional_supervisor")?;
+    params.use_sim_time |= args.use_sim_time;
+    params
+        .validate(&args.params.display().to_string())
+        .with_context(|| format!("invalid parameters in {}", args.params.display()))?;
+    let ltm = Ltm::load(&args.ltm).with_context(|| format!("cannot load the LTM {}", args.ltm.display()))?;
+    let supervisor = Supervisor::new(ltm, &args.task, params.attention.clone())
+        .with_context(|| format!("cannot allocate task {} from {}", args.task, args.ltm.display()))?;
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        anyhow::bail!("--duration {d}: must be a positive number of seconds");
+    }
+    cowork_ros::shutdown::install();
+    let node = RosNode::new(
+        "attentional_supervisor",
+        &NodeConfig { use_sim_time: params.use_sim_time, ..NodeConfig::default() },
+    )?;
+    let options = RunOptions { params, save_ltm: args.save_ltm, duration_s: args.duration, stop: None };
+    attentional_supervisor::run(node, supervisor, &options)?;
+    Ok(())
+}
