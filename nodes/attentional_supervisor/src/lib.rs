@@ -14,6 +14,12 @@
 //!   segments happened before the state the message reports;
 //! * `/speech_command` (std_msgs/String): `speech`.
 //!
+//! Not used: `RobotStream.mode` (the supervisor switches mode on `/speech_command` itself),
+//! `RobotStream.ee_pose` and `ObjectState.pose` (the distance stimulus is
+//! `ObjectState.robot_distance`), `ActionEvent.command_id` (events are matched by label).
+//! The messages carry no arm, per-arm distance or area, so over ROS the node drives a single
+//! arm; dual-arm runs go through the library's event scripts.
+//!
 //! Outputs: `/supervisor/action` (cowork_msgs/ActionCommand), only when the decision changes —
 //! a new action (`stop = false`) or an abort (`stop = true`, with the id and label of the
 //! aborted command); `/supervisor/working_memory` (cowork_msgs/WorkingMemory) at
@@ -540,6 +546,7 @@ pub fn run(mut node: RosNode, supervisor: Supervisor, options: &RunOptions) -> R
     let mut told_unsaved = false;
     let mut save_retry: Option<Instant> = None;
     let started = Instant::now();
+    let mut loop_ticks: u64 = 0;
     let stop_requested = || {
         cowork_ros::shutdown::requested()
             || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
@@ -576,6 +583,7 @@ pub fn run(mut node: RosNode, supervisor: Supervisor, options: &RunOptions) -> R
             tracing::info!("waiting for the first /object_stream before deciding");
         }
         commands.clear();
+        loop_ticks += 1;
         sn.tick(now, &mut commands);
         for c in commands.drain(..) {
             actions.publish(c)?;
@@ -621,6 +629,10 @@ pub fn run(mut node: RosNode, supervisor: Supervisor, options: &RunOptions) -> R
             Err(e) => bail!("cannot save the learned LTM to {}: {e}", path.display()),
         }
     }
-    tracing::info!("attentional_supervisor stopped after {} ticks", sn.supervisor().ticks());
+    tracing::info!(
+        "attentional_supervisor stopped after {loop_ticks} ticks ({} deciding, {} warnings)",
+        sn.supervisor().ticks(),
+        sn.warnings()
+    );
     Ok(sn.into_supervisor())
 }
