@@ -543,6 +543,7 @@ pub fn run(mut node: RosNode, supervisor: Supervisor, options: &RunOptions) -> R
     let mut snapshots = (params.snapshot_rate_hz > 0.0).then(|| Pacer::new(1.0 / params.snapshot_rate_hz));
     let mut commands = Vec::new();
     let mut told_waiting = false;
+    let mut told_clock = false;
     let mut told_unsaved = false;
     let mut save_retry: Option<Instant> = None;
     let started = Instant::now();
@@ -577,6 +578,10 @@ pub fn run(mut node: RosNode, supervisor: Supervisor, options: &RunOptions) -> R
         }
         while let Some(m) = speech.take() {
             sn.on_speech(&m);
+        }
+        if params.use_sim_time && !node.clock_started() && !told_clock {
+            told_clock = true;
+            tracing::info!("use_sim_time: waiting for /clock");
         }
         if !sn.ready() && !told_waiting {
             told_waiting = true;

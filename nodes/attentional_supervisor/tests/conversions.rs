@@ -494,3 +494,33 @@ fn pacer_keeps_a_steady_grid_and_restarts_on_jumps() {
     assert!(!p.due(1.001));
     assert!(p.due(1.01));
 }
+
+#[test]
+fn stop_aborts_with_the_command_id_and_repeat_resumes() {
+    let mut teacher = Supervisor::new(kitchen(), "pourDrink", SupervisorConfig::default()).expect("task");
+    runner::run(&mut teacher, &script("pour_teach.jsonl"), &RunConfig::default(), |_, _, _, _| {});
+    let params = Params::default();
+    let sup = Supervisor::new(teacher.ltm().clone(), "pourDrink", params.attention.clone()).expect("task");
+    let mut node = SupervisorNode::new(sup, &params);
+    node.on_object_stream(&objects(&[("water", 0.6), ("cup", 0.9)]));
+    let mut out = Vec::new();
+    node.tick(t(0.0), &mut out);
+    assert_eq!(out.len(), 1);
+    let first = out[0].clone();
+    out.clear();
+    node.on_speech(&speech("stop"));
+    node.tick(t(0.01), &mut out);
+    assert_eq!(out.len(), 1, "{out:?}");
+    assert!(out[0].stop);
+    assert_eq!((out[0].id, out[0].label.as_str()), (first.id, "foa1(water)"));
+    out.clear();
+    node.tick(t(0.02), &mut out);
+    assert!(out.is_empty(), "stopped: nothing new is commanded: {out:?}");
+    assert!(node.shutdown_commands(t(0.02)).is_empty(), "nothing running after a stop");
+    node.on_speech(&speech("repeat"));
+    node.tick(t(0.03), &mut out);
+    assert_eq!(out.len(), 1, "{out:?}");
+    assert!(!out[0].stop);
+    assert_eq!(out[0].label, "foa1(water)");
+    assert!(out[0].id > first.id, "a resumed action is a new command");
+}
