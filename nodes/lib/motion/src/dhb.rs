@@ -315,6 +315,23 @@ mod tests {
     }
 
     #[test]
+    fn time_normalisation_removes_the_execution_speed() {
+        // The same path executed twice as slowly, sampled at the same number of instants.
+        let (v, w) = twist(0.02);
+        let slow_v: Vec<_> = v.iter().map(|x| x * 0.5).collect();
+        let slow_w: Vec<_> = w.iter().map(|x| x * 0.5).collect();
+        let t_f = 4.0;
+        let a = time_normalised(&Dhb::from_twists(&v, &w).expect("dhb").rows(), t_f);
+        let b = time_normalised(&Dhb::from_twists(&slow_v, &slow_w).expect("dhb").rows(), 2.0 * t_f);
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x[0] - y[0]).abs() < 1e-9 && (x[3] - y[3]).abs() < 1e-9, "{x:?} {y:?}");
+        }
+        // Scale normalisation makes the magnitudes sum to one.
+        let s = scale_normalised(&a);
+        assert!((s.iter().map(|r| r[0].abs()).sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
     fn reversed_matches_invariants_of_reversed_motion() {
         let (v, w) = twist(0.05);
         let rows = Dhb::from_twists(&v, &w).expect("dhb").rows();

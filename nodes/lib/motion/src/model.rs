@@ -192,3 +192,45 @@ impl Model {
         serde_json::from_str(&text).map_err(|e| MotionError::Csv { file: path.to_path_buf(), row: e.line(), column: e.column().to_string(), reason: format!("invalid model JSON: {e}") })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(dim: usize, n: usize) -> Demonstration {
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+        let pos = t.iter().flat_map(|t| (0..dim).map(move |j| (1.0 - t) * (j + 1) as f64)).collect();
+        Demonstration::new(dim, t, pos, None).expect("demo")
+    }
+
+    #[test]
+    fn mismatched_dimensions_and_wrong_kinds_are_errors() {
+        let r = Model::fit(ModelKind::Gmr, &[line(2, 50), line(3, 50)], &FitOptions::default());
+        assert!(matches!(r, Err(MotionError::DimensionMismatch { .. })), "{r:?}");
+        let opts = FitOptions { components: Components::Fixed(2), ..FitOptions::default() };
+        let m = Model::fit(ModelKind::Cgmr, &[line(2, 50)], &opts).expect("fit");
+        assert!(m.rollout(&[1.0], None, &RolloutConfig { dt: 0.01, max_steps: 10, tol: 0.0 }).is_err());
+        assert!(m.eval(&[1.0, 2.0, 3.0]).is_err());
+        let dmp = Model::fit(ModelKind::Dmp, &[line(2, 50)], &FitOptions::default()).expect("dmp");
+        assert!(matches!(dmp.eval(&[0.0, 0.0]), Err(MotionError::Unsupported { .. })));
+    }
+
+    #[test]
+    fn every_kind_round_trips_through_json() {
+        let dir = std::env::temp_dir().join(format!("cowork_motion_model_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let opts = FitOptions { components: Components::Fixed(2), hmm: HmmConfig { states: 4, ..HmmConfig::default() }, ..FitOptions::default() };
+        for kind in [ModelKind::Dmp, ModelKind::Gmr, ModelKind::Cgmr, ModelKind::Hmm] {
+            let m = Model::fit(kind, &[line(2, 60)], &opts).expect("fit");
+            let p = dir.join(format!("{}.json", m.kind()));
+            m.save(&p).expect("save");
+            let back = Model::load(&p).expect("load");
+            let cfg = RolloutConfig { dt: 0.01, max_steps: 2000, tol: 1e-3 };
+            let (a, b) = (m.rollout(&[1.0, 2.0], None, &cfg).expect("a"), back.rollout(&[1.0, 2.0], None, &cfg).expect("b"));
+            // Exact: serde_json's float_roundtrip keeps every bit.
+            assert!(a.pos == b.pos && a.vel == b.vel && a.t == b.t, "{} differs after reload", m.kind());
+        }
+        std::fs::write(dir.join("bad.json"), "{\"kind\": \"gmr\", \"gmr\": 3}").expect("w");
+        assert!(Model::load(&dir.join("bad.json")).is_err());
+    }
+}
