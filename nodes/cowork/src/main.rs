@@ -1,1 +1,40 @@
-fn main() {}
+//! `cowork`: one command line for the whole stack, usable without a ROS installation.
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+/// cowork — teach a robot arm structured tasks by showing them, and run them beside people.
+#[derive(Debug, Parser)]
+#[command(version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Robot model: forward kinematics and Jacobians from the URDF.
+    #[command(subcommand)]
+    Robot(cmd::robot::RobotCommand),
+    /// Publish a speech command on /speech_command (teach, done, stop, repeat, ...).
+    Say(cmd::say::SayArgs),
+    /// Inspect live topics over DDS (no ROS installation needed).
+    #[command(subcommand)]
+    Topic(cmd::topic::TopicCommand),
+    /// Attentional supervisor: run on an event script, show the working memory.
+    #[command(subcommand)]
+    Supervisor(cmd::supervisor::SupervisorCommand),
+}
+
+fn main() -> Result<()> {
+    cowork_ros::init_logging();
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Robot(c) => cmd::robot::run(c),
+        Command::Say(a) => cmd::say::run(a),
+        Command::Topic(c) => cmd::topic::run(c),
+        Command::Supervisor(c) => cmd::supervisor::run(c),
+    }
+}

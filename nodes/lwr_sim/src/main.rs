@@ -1,1 +1,54 @@
-fn main() {}
+//! `lwr_sim`: the kinematic LWR IV+ simulator as a ROS 2 node.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use cowork_robot::RobotModel;
+use cowork_ros::{NodeConfig, RosNode};
+use cowork_sim::{Scene, Simulator};
+use lwr_sim::{LwrSim, LwrSimConfig, Pacing};
+
+/// Kinematic KUKA LWR IV+ simulator: integrates `/lwr/joint_velocity_command` at 1 kHz of
+/// simulated time and publishes `/clock`, `/joint_states` and `/tf`.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// Robot description (URDF with per-link meshes).
+    #[arg(long, default_value = "config/robot/lwr4plus.urdf")]
+    urdf: PathBuf,
+    /// Scene file: table, objects, camera, initial joints.
+    #[arg(long, default_value = "config/scenes/kitchen.yaml")]
+    scene: PathBuf,
+    /// ROS 2 parameter file with an `lwr_sim: ros__parameters:` block.
+    #[arg(long, default_value = "config/lwr_sim.yaml")]
+    params: PathBuf,
+    /// Simulated seconds per wall-clock second (1 = real time).
+    #[arg(long, default_value_t = 1.0, conflicts_with = "max")]
+    rate: f64,
+    /// Run as fast as possible.
+    #[arg(long)]
+    max: bool,
+    /// Stop after this many simulated seconds (runs until Ctrl-C otherwise).
+    #[arg(long)]
+    duration: Option<f64>,
+}
+
+fn main() -> Result<()> {
+    cowork_ros::init_logging();
+    let args = Args::parse();
+    let config: LwrSimConfig = cowork_ros::params::load(&args.params, "lwr_sim")?;
+    config
+        .validate(&args.params.display().to_string())
+        .with_context(|| format!("invalid parameters in {}", args.params.display()))?;
+    let model = RobotModel::from_urdf_file(&args.urdf)
+        .with_context(|| format!("cannot load robot description {}", args.urdf.display()))?;
+    let scene = Scene::from_file(&args.scene)
+        .with_context(|| format!("cannot load scene {}", args.scene.display()))?;
+    let sim = Simulator::new(model, scene, config.simulation.clone())
+        .with_context(|| format!("scene {} does not fit the robot", args.scene.display()))?;
+    let pacing = Pacing::from_args(args.rate, args.max)?;
+    cowork_ros::shutdown::install();
+    let node = RosNode::new("lwr_sim", &NodeConfig::default())?;
+    lwr_sim::run(node, LwrSim::new(sim, config), pacing, args.duration)
+}

@@ -1,1 +1,39 @@
-//! The one adapter between cowork libraries and ROS 2 (ros2-client).
+//! The one adapter between cowork and ROS 2.
+//!
+//! Only this crate and the node binaries depend on `ros2-client`. It gives:
+//! - [`RosNode`]: a ROS 2 node on the DDS domain of `ROS_DOMAIN_ID`, with `use_sim_time`
+//!   driven by `/clock` and its parameter services running in a background spinner;
+//! - typed [`Publisher`] / [`Subscription`] for every [`cowork_msgs::RosMessage`], whose ROS type
+//!   name comes from the message trait, so it can never drift from the struct;
+//! - the QoS of every topic of the graph ([`qos`]);
+//! - [`params::load`], the loader of ROS 2-shaped YAML parameter files;
+//! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop.
+//!
+//! ```no_run
+//! use cowork_msgs::std_msgs::String as RosString;
+//! use cowork_ros::{NodeConfig, RosNode, qos};
+//! # fn main() -> anyhow::Result<()> {
+//! let mut node = RosNode::new("talker", &NodeConfig::default())?;
+//! let speech = node.publisher::<RosString>("/speech_command", &qos::reliable())?;
+//! speech.publish(RosString { data: "teach".into() })?;
+//! # Ok(()) }
+//! ```
+
+mod node;
+pub use node::{discovery_on_all_networks, domain_id_from_env};
+pub mod params;
+pub mod qos;
+pub mod shutdown;
+
+pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};
+
+/// Sets up `tracing` logging to stderr, filtered by `RUST_LOG` (default `info`).
+pub fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    // A second call (tests) is harmless.
+    let _ = tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .try_init();
+}

@@ -1,1 +1,35 @@
-//! Kinematic arm simulator: joint integration, limits, gripper, objects, admittance teaching.
+//! Kinematic simulator of a 7-DoF arm in a table-top scene.
+//!
+//! The simulator integrates joint velocity commands at a fixed step (1 ms by default) of
+//! simulated time, saturates joint positions and velocities at the URDF limits, moves a
+//! gripper that grasps the nearest graspable object within reach, carries held objects with
+//! the hand, and turns external wrenches into admittance motion for kinesthetic teaching
+//! (thesis eq. 4.6, `ẋ = c f`, with `c = 0.005 m/(N s)`).
+//!
+//! It is deterministic: the same model, scene and input sequence give bit-identical states.
+//! Time is kept in integer nanoseconds so that long runs do not drift.
+//!
+//! ```no_run
+//! use cowork_robot::RobotModel;
+//! use cowork_sim::{Scene, SimParams, Simulator};
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let model = RobotModel::from_urdf_file("config/robot/lwr4plus.urdf")?;
+//! let scene = Scene::from_file(std::path::Path::new("config/scenes/kitchen.yaml"))?;
+//! let mut sim = Simulator::new(model, scene, SimParams::default())?;
+//! sim.set_velocity_command(&[0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])?;
+//! for _ in 0..1000 {
+//!     sim.step();
+//! }
+//! println!("q1 after 1 s: {:.3} rad", sim.joint_positions()[0]);
+//! # Ok(()) }
+//! ```
+
+mod error;
+mod params;
+mod scene;
+mod simulator;
+
+pub use error::{CommandError, Result, SimError};
+pub use params::SimParams;
+pub use scene::{Camera, Pose, Scene, SceneObject, Shape};
+pub use simulator::{GripperState, ObjectState, Simulator, Wrench};

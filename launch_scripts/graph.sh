@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Start the cowork graph: every node a separate process, talking DDS on loopback.
+#
+#   launch_scripts/graph.sh [--rate R | --max] [--duration S] [--logs DIR] [--scene FILE]
+#
+# Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every node cleanly.
+# Nodes run from target/release; build first with `cargo build --release --bins`.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+rate_args=(--rate 1)
+duration_args=()
+logs=out/logs
+scene=config/scenes/kitchen.yaml
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --rate) rate_args=(--rate "$2"); shift 2 ;;
+    --max) rate_args=(--max); shift ;;
+    --duration) duration_args=(--duration "$2"); shift 2 ;;
+    --logs) logs="$2"; shift 2 ;;
+    --scene) scene="$2"; shift 2 ;;
+    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
+  esac
+done
+
+bin=target/release
+for b in lwr_sim attentional_supervisor; do
+  [[ -x $bin/$b ]] || { echo "graph.sh: $bin/$b missing; run: cargo build --release --bins" >&2; exit 1; }
+done
+mkdir -p "$logs"
+
+pids=()
+names=()
+start() { # name, command...
+  local name=$1; shift
+  "$@" >"$logs/$name.log" 2>&1 &
+  pids+=($!)
+  names+=("$name")
+  echo "started $name (pid $!, log $logs/$name.log)"
+}
+
+stop_all() {
+  trap - INT TERM EXIT
+  for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
+  for i in "${!pids[@]}"; do
+    # Give each node 5 s to leave the DDS domain cleanly, then force it.
+    for _ in $(seq 50); do kill -0 "${pids[$i]}" 2>/dev/null || break; sleep 0.1; done
+    if kill -0 "${pids[$i]}" 2>/dev/null; then
+      echo "${names[$i]} did not stop; killing it" >&2
+      kill -KILL "${pids[$i]}" 2>/dev/null || true
+    fi
+  done
+  echo "graph stopped"
+}
+trap stop_all INT TERM EXIT
+
+start lwr_sim $bin/lwr_sim --scene "$scene" "${rate_args[@]}" "${duration_args[@]}"
+start attentional_supervisor $bin/attentional_supervisor --ltm config/tasks/kitchen.schema --task pourDrink
+
+# Wait until any node exits (e.g. --duration reached) or a signal arrives.
+wait -n "${pids[@]}" || true

@@ -1,0 +1,358 @@
+use std::marker::PhantomData;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Context as _, Result, bail};
+use cowork_msgs::RosMessage;
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::rosgraph_msgs::Clock;
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, QosProfile,
+};
+
+use crate::qos;
+
+/// How a node joins the graph.
+#[derive(Debug, Clone)]
+pub struct NodeConfig {
+    /// ROS namespace, `/` for none.
+    pub namespace: String,
+    /// Take time from `/clock` instead of the wall clock.
+    pub use_sim_time: bool,
+    /// DDS domain; `None` reads `ROS_DOMAIN_ID` (0 when unset).
+    pub domain_id: Option<u16>,
+}
+
+impl Default for NodeConfig {
+    fn default() -> Self {
+        Self { namespace: "/".into(), use_sim_time: false, domain_id: None }
+    }
+}
+
+/// A discovered topic and its ROS type.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
+pub struct TopicInfo {
+    /// ROS topic name, e.g. `/joint_states`.
+    pub name: String,
+    /// ROS type, e.g. `sensor_msgs/msg/JointState`.
+    pub type_name: String,
+}
+
+/// A ROS 2 node on the domain given by `ROS_DOMAIN_ID` (0 when unset).
+pub struct RosNode {
+    // Field order matters: the node must drop before its context.
+    node: Node,
+    context: Context,
+    name: String,
+    /// Latest `/clock` time, ns; negative until the first tick when `use_sim_time`.
+    sim_time_ns: Option<Arc<AtomicI64>>,
+    _clock: Option<std::thread::JoinHandle<()>>,
+}
+
+impl std::fmt::Debug for RosNode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("RosNode").field("name", &self.name).finish_non_exhaustive()
+    }
+}
+
+/// The domain id from `ROS_DOMAIN_ID`, 0 when unset.
+pub fn domain_id_from_env() -> Result<u16> {
+    match std::env::var("ROS_DOMAIN_ID") {
+        Err(_) => Ok(0),
+        Ok(s) if s.trim().is_empty() => Ok(0),
+        Ok(s) => {
+            let id: u16 = s
+                .trim()
+                .parse()
+                .with_context(|| format!("ROS_DOMAIN_ID={s:?} is not a number"))?;
+            if id > 232 {
+                bail!("ROS_DOMAIN_ID={id} is out of range (0..=232)");
+            }
+            Ok(id)
+        }
+    }
+}
+
+/// Whether DDS may use every network interface (`ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`, or
+/// `ROS_LOCALHOST_ONLY=0`). By default cowork keeps all DDS traffic on loopback.
+pub fn discovery_on_all_networks() -> bool {
+    match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE") {
+        Ok(r) => matches!(r.trim().to_ascii_uppercase().as_str(), "SUBNET" | "SYSTEM_DEFAULT"),
+        Err(_) => std::env::var("ROS_LOCALHOST_ONLY").is_ok_and(|v| v.trim() == "0"),
+    }
+}
+
+fn new_context(domain: u16) -> Result<Context> {
+    let mut builder = DomainParticipantBuilder::new(domain).same_host_loopback(true);
+    if !discovery_on_all_networks() {
+        builder = builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
+    }
+    let participant = builder
+        .build()
+        .with_context(|| format!("cannot join DDS domain {domain}"))?;
+    Context::from_domain_participant(participant)
+        .with_context(|| format!("cannot create a ROS 2 context on DDS domain {domain}"))
+}
+
+impl RosNode {
+    /// Creates the node, starts its background spinner (discovery, parameter services) and,
+    /// with `use_sim_time`, follows `/clock`.
+    pub fn new(name: &str, config: &NodeConfig) -> Result<Self> {
+        let domain = match config.domain_id {
+            Some(d) => d,
+            None => domain_id_from_env()?,
+        };
+        let context = new_context(domain)?;
+        let node_name = NodeName::new(&config.namespace, name)
+            .map_err(|e| anyhow::anyhow!("invalid node name {name:?} in {:?}: {e:?}", config.namespace))?;
+        let mut node = context
+            .new_node(
+                node_name,
+                NodeOptions::new().enable_rosout(true).declare_parameter(
+                    "use_sim_time",
+                    ros2_client::ParameterValue::Boolean(config.use_sim_time),
+                ),
+            )
+            .with_context(|| format!("cannot create ROS node {name}"))?;
+        let spinner = node.spinner().context("cannot create the node spinner")?;
+        std::thread::Builder::new()
+            .name(format!("{name}-spinner"))
+            .spawn(move || {
+                if let Err(e) = smol::block_on(spinner.spin()) {
+                    tracing::warn!("node spinner stopped: {e:?}");
+                }
+            })
+            .context("cannot start the spinner thread")?;
+        let mut this = Self {
+            node,
+            context,
+            name: name.to_owned(),
+            sim_time_ns: None,
+            _clock: None,
+        };
+        if config.use_sim_time {
+            this.follow_clock()?;
+        }
+        Ok(this)
+    }
+
+    fn follow_clock(&mut self) -> Result<()> {
+        let clock = self.subscription::<Clock>("/clock", &qos::clock())?;
+        let time = Arc::new(AtomicI64::new(-1));
+        let shared = Arc::clone(&time);
+        let handle = std::thread::Builder::new()
+            .name(format!("{}-clock", self.name))
+            .spawn(move || {
+                while !crate::shutdown::requested() {
+                    match clock.recv_timeout(Duration::from_millis(100)) {
+                        Some(c) => shared.store(c.clock.to_nanos(), Ordering::Release),
+                        None => continue,
+                    }
+                }
+            })
+            .context("cannot start the clock thread")?;
+        self.sim_time_ns = Some(time);
+        self._clock = Some(handle);
+        Ok(())
+    }
+
+    /// The node's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Current time: `/clock` time with `use_sim_time` (zero before the first tick), else the
+    /// wall clock.
+    pub fn now(&self) -> Time {
+        match &self.sim_time_ns {
+            Some(t) => Time::from_nanos(t.load(Ordering::Acquire).max(0)),
+            None => {
+                let d = SystemTime::now().duration_since(UNIX_EPOCH).unwrap_or_default();
+                Time::from_nanos(d.as_nanos() as i64)
+            }
+        }
+    }
+
+    /// Whether `/clock` has ticked yet (always true without `use_sim_time`).
+    pub fn clock_started(&self) -> bool {
+        self.sim_time_ns.as_ref().is_none_or(|t| t.load(Ordering::Acquire) >= 0)
+    }
+
+    fn topic<T: RosMessage>(&mut self, topic: &str, qos: &QosProfile) -> Result<ros2_client::dds::rustdds::Topic> {
+        let name = Name::parse(topic)
+            .map_err(|e| anyhow::anyhow!("invalid topic name {topic:?}: {e:?}"))?;
+        self.node
+            .create_topic(&name, MessageTypeName::new(T::PACKAGE, T::NAME), qos)
+            .with_context(|| format!("cannot create topic {topic} ({})", T::type_name()))
+    }
+
+    /// A publisher of `T` on `topic` (absolute name, e.g. `/joint_states`).
+    pub fn publisher<T: RosMessage>(&mut self, topic: &str, qos: &QosProfile) -> Result<Publisher<T>> {
+        let t = self.topic::<T>(topic, qos)?;
+        let inner = self
+            .node
+            .create_publisher::<T>(&t, Some(qos.clone()))
+            .with_context(|| format!("cannot publish on {topic}"))?;
+        Ok(Publisher { inner, topic: topic.to_owned() })
+    }
+
+    /// A subscription to `T` on `topic`.
+    pub fn subscription<T: RosMessage>(
+        &mut self,
+        topic: &str,
+        qos: &QosProfile,
+    ) -> Result<Subscription<T>> {
+        let t = self.topic::<T>(topic, qos)?;
+        let inner = self
+            .node
+            .create_subscription::<T>(&t, Some(qos.clone()))
+            .with_context(|| format!("cannot subscribe to {topic}"))?;
+        Ok(Subscription { inner, topic: topic.to_owned(), _type: PhantomData })
+    }
+
+    /// Topics seen on the domain so far, with their ROS types (`pkg/msg/Name`); DDS-internal
+    /// topics are left out.
+    pub fn discovered_topics(&self) -> Vec<TopicInfo> {
+        let mut topics: Vec<TopicInfo> = self
+            .context
+            .discovered_topics()
+            .into_iter()
+            .filter_map(|t| {
+                Some(TopicInfo {
+                    name: ros_topic_name(&t.name)?,
+                    type_name: ros_type_name(&t.type_name)?,
+                })
+            })
+            .collect();
+        topics.sort();
+        topics.dedup();
+        topics
+    }
+}
+
+/// `rt/joint_states` → `/joint_states`; non-topic DDS names (services, discovery) → None.
+fn ros_topic_name(dds: &str) -> Option<String> {
+    dds.strip_prefix("rt/").map(|rest| format!("/{rest}"))
+}
+
+/// `sensor_msgs::msg::dds_::JointState_` → `sensor_msgs/msg/JointState`.
+fn ros_type_name(dds: &str) -> Option<String> {
+    let (pkg, rest) = dds.split_once("::msg::dds_::")?;
+    Some(format!("{pkg}/msg/{}", rest.strip_suffix('_').unwrap_or(rest)))
+}
+
+/// Publishes `T` on one topic.
+pub struct Publisher<T: RosMessage> {
+    inner: ros2_client::Publisher<T>,
+    topic: String,
+}
+
+impl<T: RosMessage> std::fmt::Debug for Publisher<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Publisher<{}>({})", T::type_name(), self.topic)
+    }
+}
+
+impl<T: RosMessage> Publisher<T> {
+    /// Publishes one message.
+    pub fn publish(&self, msg: T) -> Result<()> {
+        self.inner
+            .publish(msg)
+            .map_err(|e| anyhow::anyhow!("publish on {} failed: {e:?}", self.topic))
+    }
+
+    /// Number of matched subscriptions (all participants on the domain).
+    pub fn subscription_count(&self, node: &RosNode) -> usize {
+        self.inner.get_subscription_count(&node.node)
+    }
+
+    /// Topic name.
+    pub fn topic(&self) -> &str {
+        &self.topic
+    }
+}
+
+/// Receives `T` from one topic. Messages that cannot be decoded are logged and skipped: a bad
+/// message never stops a node.
+pub struct Subscription<T: RosMessage> {
+    inner: ros2_client::Subscription<T>,
+    topic: String,
+    _type: PhantomData<T>,
+}
+
+impl<T: RosMessage> std::fmt::Debug for Subscription<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Subscription<{}>({})", T::type_name(), self.topic)
+    }
+}
+
+impl<T: RosMessage> Subscription<T> {
+    /// The next waiting message, if any; never blocks.
+    pub fn take(&self) -> Option<T> {
+        // Bounded: a burst of undecodable samples cannot trap the caller.
+        for _ in 0..64 {
+            match self.inner.take() {
+                Ok(Some((msg, _info))) => return Some(msg),
+                Ok(None) => return None,
+                Err(e) => tracing::warn!(
+                    "{}: dropped a message that is not a valid {}: {e:?}",
+                    self.topic,
+                    T::type_name()
+                ),
+            }
+        }
+        None
+    }
+
+    /// The newest waiting message, discarding older ones.
+    pub fn take_latest(&self) -> Option<T> {
+        let mut latest = None;
+        while let Some(m) = self.take() {
+            latest = Some(m);
+        }
+        latest
+    }
+
+    /// Waits up to `timeout` for a message.
+    pub fn recv_timeout(&self, timeout: Duration) -> Option<T> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(m) = self.take() {
+                return Some(m);
+            }
+            if Instant::now() >= deadline || crate::shutdown::requested() {
+                return None;
+            }
+            std::thread::sleep(Duration::from_micros(500));
+        }
+    }
+
+    /// Number of matched publishers.
+    pub fn publisher_count(&self, node: &RosNode) -> usize {
+        self.inner.get_publisher_count(&node.node)
+    }
+
+    /// Topic name.
+    pub fn topic(&self) -> &str {
+        &self.topic
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dds_names_map_to_ros_names() {
+        assert_eq!(ros_topic_name("rt/lwr/joint_velocity_command").as_deref(), Some("/lwr/joint_velocity_command"));
+        assert_eq!(ros_topic_name("rq/foo/get_parametersRequest"), None);
+        assert_eq!(
+            ros_type_name("sensor_msgs::msg::dds_::JointState_").as_deref(),
+            Some("sensor_msgs/msg/JointState")
+        );
+        assert_eq!(ros_type_name("rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_").as_deref(),
+            Some("rmw_dds_common/msg/ParticipantEntitiesInfo"));
+    }
+}

@@ -1,0 +1,50 @@
+//! QoS of the topics of the graph. The README's topic table quotes these.
+
+pub use ros2_client::QosProfile;
+use ros2_client::qos::{Durability, History, Reliability, WhenFull};
+
+/// ROS 2's default: reliable, volatile, keep last 10. Used unless a topic says otherwise.
+pub fn reliable() -> QosProfile {
+    reliable_depth(10)
+}
+
+/// Reliable, volatile, keep last `depth`. Keep-last writers never block on slow readers.
+pub fn reliable_depth(depth: usize) -> QosProfile {
+    QosProfile {
+        reliability: Reliability::Reliable { when_full: WhenFull::DEFAULT },
+        durability: Durability::Volatile,
+        history: History::KeepLast { depth },
+        ..QosProfile::publisher_default()
+    }
+}
+
+/// `/clock`: best effort, keep last 1 (as rclcpp's `ClockQoS`): a late tick is useless.
+pub fn clock() -> QosProfile {
+    QosProfile {
+        reliability: Reliability::BestEffort,
+        durability: Durability::Volatile,
+        history: History::KeepLast { depth: 1 },
+        ..QosProfile::publisher_default()
+    }
+}
+
+/// Streams where only the newest sample matters and loss is fine (as rclcpp's
+/// `SensorDataQoS`): best effort, keep last 5.
+pub fn sensor_data() -> QosProfile {
+    QosProfile {
+        reliability: Reliability::BestEffort,
+        durability: Durability::Volatile,
+        history: History::KeepLast { depth: 5 },
+        ..QosProfile::publisher_default()
+    }
+}
+
+/// `/tf_static` and other latched topics: reliable, transient local, keep last 1.
+pub fn latched() -> QosProfile {
+    QosProfile {
+        reliability: Reliability::Reliable { when_full: WhenFull::DEFAULT },
+        durability: Durability::TransientLocal,
+        history: History::KeepLast { depth: 1 },
+        ..QosProfile::publisher_default()
+    }
+}

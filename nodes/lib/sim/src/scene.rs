@@ -1,0 +1,340 @@
+//! Scene description: table, objects and depth camera, all in the robot base frame.
+
+use std::path::Path;
+
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use parry3d_f64::shape::{Ball, Cuboid, Cylinder, Shape as ParryShape};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, SimError};
+
+/// A pose in the robot base frame. Orientation is given by roll-pitch-yaw (rad, fixed axes
+/// x-y-z), by a unit quaternion `[x, y, z, w]`, or — for cameras — by a point to look at.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pose {
+    /// Position, m.
+    pub position: [f64; 3],
+    /// Roll, pitch, yaw, rad.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rpy: Option<[f64; 3]>,
+    /// Unit quaternion `[x, y, z, w]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quaternion_xyzw: Option<[f64; 4]>,
+    /// Point the optical axis (+z) looks at, with image rows (+y) pointing down; cameras only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub look_at: Option<[f64; 3]>,
+}
+
+/// Primitive shape of a scene object, centred on its pose; cylinders are along the pose's z axis.
+/// In YAML: `{ type: box, size: [x, y, z] }`, `{ type: cylinder, radius: r, height: h }`,
+/// `{ type: sphere, radius: r }`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Shape {
+    /// Axis-aligned box with full side lengths, m.
+    Box { size: [f64; 3] },
+    /// Cylinder along z, m.
+    Cylinder { radius: f64, height: f64 },
+    /// Sphere, m.
+    Sphere { radius: f64 },
+}
+
+/// A rigid object on the table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneObject {
+    /// Unique name, also its tf frame and its name in `/object_stream`.
+    pub name: String,
+    /// Geometry.
+    pub shape: Shape,
+    /// Initial pose of the shape's centre, base frame.
+    pub pose: Pose,
+    /// Whether the gripper can pick it up.
+    #[serde(default = "yes")]
+    pub graspable: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// The table: a box whose top is the support surface for released objects.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Table {
+    /// Full side lengths, m.
+    pub size: [f64; 3],
+    /// Pose of the box centre, base frame.
+    pub pose: Pose,
+}
+
+/// A pin-hole depth camera (thesis eq. 5.14).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    /// tf frame of the optical frame (z forward, x right, y down).
+    pub frame_id: String,
+    /// Pose of the optical frame in the base frame.
+    pub pose: Pose,
+    /// Image width and height, px.
+    pub width: u32,
+    pub height: u32,
+    /// Focal lengths and principal point, px.
+    pub fx: f64,
+    pub fy: f64,
+    pub cx: f64,
+    pub cy: f64,
+    /// Frame rate, Hz.
+    pub rate_hz: f64,
+}
+
+/// Robot placement and start configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RobotSetup {
+    /// Joint positions at start, deg (one per actuated joint).
+    pub initial_joints_deg: Vec<f64>,
+}
+
+/// A table-top scene in the robot base frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Free text shown in logs.
+    #[serde(default)]
+    pub description: String,
+    pub robot: RobotSetup,
+    pub table: Table,
+    #[serde(default)]
+    pub objects: Vec<SceneObject>,
+    pub camera: Camera,
+}
+
+impl Scene {
+    /// Reads and validates a scene YAML file.
+    pub fn from_file(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        let scene: Scene = serde_yaml_ng::from_str(&text).map_err(|e| SimError::Parse {
+            path: path.to_owned(),
+            message: e.to_string(),
+        })?;
+        scene.validate(&path.display().to_string())?;
+        Ok(scene)
+    }
+
+    /// Checks every number; `place` names the file in error messages.
+    pub fn validate(&self, place: &str) -> Result<()> {
+        for (i, v) in self.robot.initial_joints_deg.iter().enumerate() {
+            finite(place, &format!("robot.initial_joints_deg[{i}]"), *v)?;
+        }
+        for (i, v) in self.table.size.iter().enumerate() {
+            positive(place, &format!("table.size[{i}]"), *v)?;
+        }
+        self.table.pose.validate(place, "table.pose")?;
+        let mut names = std::collections::BTreeSet::new();
+        for (i, o) in self.objects.iter().enumerate() {
+            let at = format!("objects[{i}] ({})", o.name);
+            if o.name.is_empty() || o.name.contains(char::is_whitespace) {
+                return Err(SimError::BadValue {
+                    place: place.to_owned(),
+                    field: format!("objects[{i}].name"),
+                    value: format!("{:?}", o.name),
+                    reason: "must be a non-empty name without spaces".into(),
+                });
+            }
+            if !names.insert(o.name.as_str()) {
+                return Err(SimError::BadValue {
+                    place: place.to_owned(),
+                    field: format!("objects[{i}].name"),
+                    value: o.name.clone(),
+                    reason: "duplicate object name".into(),
+                });
+            }
+            match o.shape {
+                Shape::Box { size } => {
+                    for (k, v) in size.iter().enumerate() {
+                        positive(place, &format!("{at}.shape.box.size[{k}]"), *v)?;
+                    }
+                }
+                Shape::Cylinder { radius, height } => {
+                    positive(place, &format!("{at}.shape.cylinder.radius"), radius)?;
+                    positive(place, &format!("{at}.shape.cylinder.height"), height)?;
+                }
+                Shape::Sphere { radius } => {
+                    positive(place, &format!("{at}.shape.sphere.radius"), radius)?;
+                }
+            }
+            o.pose.validate(place, &format!("{at}.pose"))?;
+        }
+        let c = &self.camera;
+        c.pose.validate(place, "camera.pose")?;
+        if c.width == 0 || c.height == 0 {
+            return Err(SimError::BadValue {
+                place: place.to_owned(),
+                field: "camera.width/height".into(),
+                value: format!("{}x{}", c.width, c.height),
+                reason: "image size must be positive".into(),
+            });
+        }
+        for (field, v) in [("camera.fx", c.fx), ("camera.fy", c.fy), ("camera.rate_hz", c.rate_hz)] {
+            positive(place, field, v)?;
+        }
+        finite(place, "camera.cx", c.cx)?;
+        finite(place, "camera.cy", c.cy)?;
+        Ok(())
+    }
+
+    /// Height of the table top in the base frame, m.
+    pub fn table_top_z(&self) -> f64 {
+        self.table.pose.isometry().translation.vector.z + 0.5 * self.table.size[2]
+    }
+}
+
+impl Pose {
+    /// The pose as an isometry (base frame ← local frame).
+    pub fn isometry(&self) -> Isometry3<f64> {
+        let t = Translation3::new(self.position[0], self.position[1], self.position[2]);
+        let r = if let Some([x, y, z, w]) = self.quaternion_xyzw {
+            UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+        } else if let Some(target) = self.look_at {
+            look_at_optical(Point3::from(self.position), Point3::from(target))
+        } else if let Some([r, p, y]) = self.rpy {
+            UnitQuaternion::from_euler_angles(r, p, y)
+        } else {
+            UnitQuaternion::identity()
+        };
+        Isometry3::from_parts(t, r)
+    }
+
+    fn validate(&self, place: &str, at: &str) -> Result<()> {
+        for (i, v) in self.position.iter().enumerate() {
+            finite(place, &format!("{at}.position[{i}]"), *v)?;
+        }
+        let given = [self.rpy.is_some(), self.quaternion_xyzw.is_some(), self.look_at.is_some()];
+        if given.iter().filter(|g| **g).count() > 1 {
+            return Err(SimError::BadValue {
+                place: place.to_owned(),
+                field: at.to_owned(),
+                value: "rpy/quaternion_xyzw/look_at".into(),
+                reason: "give at most one orientation".into(),
+            });
+        }
+        if let Some(rpy) = self.rpy {
+            for (i, v) in rpy.iter().enumerate() {
+                finite(place, &format!("{at}.rpy[{i}]"), *v)?;
+            }
+        }
+        if let Some(q) = self.quaternion_xyzw {
+            let n = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if !(n.is_finite() && (n - 1.0).abs() < 1e-3) {
+                return Err(SimError::BadValue {
+                    place: place.to_owned(),
+                    field: format!("{at}.quaternion_xyzw"),
+                    value: format!("{q:?}"),
+                    reason: "must be a unit quaternion".into(),
+                });
+            }
+        }
+        if let Some(t) = self.look_at {
+            for (i, v) in t.iter().enumerate() {
+                finite(place, &format!("{at}.look_at[{i}]"), *v)?;
+            }
+            let d = Vector3::from(t) - Vector3::from(self.position);
+            if d.norm() < 1e-6 || d.normalize().cross(&Vector3::z()).norm() < 1e-6 {
+                return Err(SimError::BadValue {
+                    place: place.to_owned(),
+                    field: format!("{at}.look_at"),
+                    value: format!("{t:?}"),
+                    reason: "must differ from the position and not be straight above/below it".into(),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Optical-frame orientation (z along the view direction, y towards the floor) looking from
+/// `eye` at `target`, with the base frame's z as "up".
+fn look_at_optical(eye: Point3<f64>, target: Point3<f64>) -> UnitQuaternion<f64> {
+    let z = (target - eye).normalize();
+    let x = z.cross(&Vector3::z()).normalize(); // image right
+    let y = z.cross(&x); // image down
+    let m = nalgebra::Matrix3::from_columns(&[x, y, z]);
+    UnitQuaternion::from_rotation_matrix(&nalgebra::Rotation3::from_matrix_unchecked(m))
+}
+
+impl Shape {
+    /// The shape as a parry shape in its own frame, with the frame offset that aligns parry's
+    /// y-axis cylinders with our z-axis cylinders.
+    pub fn parry(&self) -> (Box<dyn ParryShape>, Isometry3<f64>) {
+        match *self {
+            Shape::Box { size } => (
+                Box::new(Cuboid::new(Vector3::from(size) * 0.5)),
+                Isometry3::identity(),
+            ),
+            Shape::Cylinder { radius, height } => (
+                Box::new(Cylinder::new(0.5 * height, radius)),
+                Isometry3::rotation(Vector3::x() * std::f64::consts::FRAC_PI_2),
+            ),
+            Shape::Sphere { radius } => (Box::new(Ball::new(radius)), Isometry3::identity()),
+        }
+    }
+}
+
+fn finite(place: &str, field: &str, v: f64) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(SimError::BadValue {
+            place: place.to_owned(),
+            field: field.to_owned(),
+            value: v.to_string(),
+            reason: "must be finite".into(),
+        })
+    }
+}
+
+fn positive(place: &str, field: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(SimError::BadValue {
+            place: place.to_owned(),
+            field: field.to_owned(),
+            value: v.to_string(),
+            reason: "must be a finite number > 0".into(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn look_at_points_optical_axis_at_target() {
+        let pose = Pose {
+            position: [1.5, 0.0, 1.0],
+            look_at: Some([0.5, 0.0, 0.0]),
+            ..Default::default()
+        };
+        let iso = pose.isometry();
+        let z = iso.rotation * Vector3::z();
+        let want = (Vector3::new(0.5, 0.0, 0.0) - Vector3::new(1.5, 0.0, 1.0)).normalize();
+        assert!((z - want).norm() < 1e-12);
+        // Image "down" has a negative world z component.
+        assert!((iso.rotation * Vector3::y()).z < 0.0);
+    }
+
+    #[test]
+    fn cylinder_is_along_z() {
+        let (shape, offset) = Shape::Cylinder { radius: 0.05, height: 0.2 }.parry();
+        let aabb = shape.compute_aabb(&offset);
+        assert!((aabb.maxs.z - 0.1).abs() < 1e-9);
+        assert!((aabb.maxs.x - 0.05).abs() < 1e-9);
+    }
+}

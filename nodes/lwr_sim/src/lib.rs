@@ -1,0 +1,329 @@
+//! The `lwr_sim` node: a thin ROS 2 adapter around [`cowork_sim::Simulator`].
+//!
+//! [`LwrSim`] turns messages into simulator inputs and simulator state into messages; it does no
+//! I/O, so tests drive it directly. [`run`] wires it to DDS topics and paces simulated time.
+//!
+//! Inputs: `/lwr/joint_velocity_command` (std_msgs/Float64MultiArray, 7 values, rad/s),
+//! `/lwr/gripper_command` (std_msgs/String `open` / `close`), `/external_wrench`
+//! (geometry_msgs/WrenchStamped: expressed in `header.frame_id` and applied at its origin; an empty
+//! frame or the base link means a base-frame wrench at the tool point).
+//! Outputs: `/clock`, `/joint_states`, `/tf` (links and objects), `/tf_static` (camera).
+
+use std::time::{Duration, Instant};
+
+use anyhow::{Result, bail};
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::geometry_msgs::{Quaternion, Transform, TransformStamped, Vector3, WrenchStamped};
+use cowork_msgs::rosgraph_msgs::Clock;
+use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::std_msgs::{Float64MultiArray, Header, String as RosString};
+use cowork_msgs::tf2_msgs::TFMessage;
+use cowork_ros::{RosNode, qos};
+use cowork_sim::{SimParams, Simulator, Wrench};
+use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
+
+/// Publication rates of the node, Hz of simulated time.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PublishRates {
+    /// `/clock`.
+    pub clock_rate_hz: f64,
+    /// `/joint_states`.
+    pub joint_state_rate_hz: f64,
+    /// `/tf` (links and objects).
+    pub tf_rate_hz: f64,
+}
+
+impl Default for PublishRates {
+    fn default() -> Self {
+        Self { clock_rate_hz: 1000.0, joint_state_rate_hz: 1000.0, tf_rate_hz: 50.0 }
+    }
+}
+
+/// The `lwr_sim: ros__parameters:` block.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LwrSimConfig {
+    /// Simulator parameters.
+    pub simulation: SimParams,
+    /// Topic rates.
+    pub publish: PublishRates,
+}
+
+impl LwrSimConfig {
+    /// Rejects NaN and out-of-range values; `place` names the file.
+    pub fn validate(&self, place: &str) -> Result<()> {
+        self.simulation.validate(place)?;
+        let max = 1.0 / self.simulation.step_s;
+        for (field, v) in [
+            ("publish.clock_rate_hz", self.publish.clock_rate_hz),
+            ("publish.joint_state_rate_hz", self.publish.joint_state_rate_hz),
+            ("publish.tf_rate_hz", self.publish.tf_rate_hz),
+        ] {
+            if !(v.is_finite() && v > 0.0 && v <= max) {
+                bail!("{place}: `{field}` = {v} must be in (0, {max}] Hz (one message per step at most)");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How simulated time relates to wall time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Pacing {
+    /// Simulated seconds per wall second.
+    Rate(f64),
+    /// As fast as possible.
+    Max,
+}
+
+impl Pacing {
+    /// From `--rate R` / `--max`.
+    pub fn from_args(rate: f64, max: bool) -> Result<Self> {
+        if max {
+            return Ok(Self::Max);
+        }
+        if !(rate.is_finite() && rate > 0.0) {
+            bail!("--rate {rate}: must be a positive number (use --max for as fast as possible)");
+        }
+        Ok(Self::Rate(rate))
+    }
+}
+
+/// What became due in one step.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Due {
+    pub clock: bool,
+    pub joint_states: bool,
+    pub tf: bool,
+}
+
+/// The simulator with its message conversions.
+#[derive(Debug)]
+pub struct LwrSim {
+    sim: Simulator,
+    every_clock: u64,
+    every_joint_states: u64,
+    every_tf: u64,
+    steps: u64,
+    base_frame: String,
+    joint_state: JointState,
+}
+
+impl LwrSim {
+    /// Wraps a simulator; `config.publish` sets the topic rates.
+    pub fn new(sim: Simulator, config: LwrSimConfig) -> Self {
+        let every = |hz: f64| ((1.0 / (hz * config.simulation.step_s)).round() as u64).max(1);
+        let names = sim.model().joint_names().to_vec();
+        let base_frame = sim.model().link_names()[0].clone();
+        let n = names.len();
+        Self {
+            every_clock: every(config.publish.clock_rate_hz),
+            every_joint_states: every(config.publish.joint_state_rate_hz),
+            every_tf: every(config.publish.tf_rate_hz),
+            steps: 0,
+            base_frame,
+            joint_state: JointState {
+                name: names,
+                position: vec![0.0; n],
+                velocity: vec![0.0; n],
+                ..Default::default()
+            },
+            sim,
+        }
+    }
+
+    /// The wrapped simulator.
+    pub fn simulator(&self) -> &Simulator {
+        &self.sim
+    }
+
+    /// Current simulated time.
+    pub fn now(&self) -> Time {
+        Time::from_nanos(self.sim.time_ns())
+    }
+
+    /// Applies a joint velocity command; a bad one is logged, and the robot is held.
+    pub fn on_velocity_command(&mut self, msg: &Float64MultiArray) {
+        if let Err(e) = self.sim.set_velocity_command(&msg.data) {
+            tracing::warn!("/lwr/joint_velocity_command rejected, robot held: {e}");
+        }
+    }
+
+    /// Opens or closes the gripper on `open` / `close`; anything else is logged and ignored.
+    pub fn on_gripper_command(&mut self, msg: &RosString) {
+        match msg.data.trim().to_ascii_lowercase().as_str() {
+            "close" => match self.sim.command_gripper(true) {
+                Some(name) => tracing::info!("gripper closed on {name}"),
+                None => tracing::info!("gripper closed on nothing (no object within reach)"),
+            },
+            "open" => {
+                self.sim.command_gripper(false);
+                tracing::info!("gripper open");
+            }
+            other => tracing::warn!("/lwr/gripper_command: unknown command {other:?} (expected open or close)"),
+        }
+    }
+
+    /// Applies an external wrench (see the module docs for its frame).
+    pub fn on_wrench(&mut self, msg: &WrenchStamped) {
+        let frame = msg.header.frame_id.as_str();
+        let f = &msg.wrench.force;
+        let t = &msg.wrench.torque;
+        let mut force = nalgebra::Vector3::new(f.x, f.y, f.z);
+        let mut torque = nalgebra::Vector3::new(t.x, t.y, t.z);
+        let link = if frame.is_empty() || frame == self.base_frame {
+            None
+        } else {
+            match self.sim.model().link_index(frame) {
+                Some(i) => {
+                    let r = self.sim.link_poses().get(i).rotation;
+                    force = r * force;
+                    torque = r * torque;
+                    Some(frame)
+                }
+                None => {
+                    tracing::warn!("/external_wrench: unknown frame {frame:?}, wrench ignored");
+                    return;
+                }
+            }
+        };
+        if let Err(e) = self.sim.set_wrench(Wrench { force, torque }, link) {
+            tracing::warn!("/external_wrench rejected: {e}");
+        }
+    }
+
+    /// Advances one step and says which topics are due.
+    pub fn step(&mut self) -> Due {
+        self.sim.step();
+        self.steps += 1;
+        Due {
+            clock: self.steps % self.every_clock == 0,
+            joint_states: self.steps % self.every_joint_states == 0,
+            tf: self.steps % self.every_tf == 0,
+        }
+    }
+
+    /// `/clock` message at the current time.
+    pub fn clock(&self) -> Clock {
+        Clock { clock: self.now() }
+    }
+
+    /// `/joint_states` message at the current time.
+    pub fn joint_states(&mut self) -> JointState {
+        let stamp = self.now();
+        let q = self.sim.joint_positions();
+        let qd = self.sim.joint_velocities();
+        self.joint_state.header.stamp = stamp;
+        self.joint_state.position.copy_from_slice(q.as_slice());
+        self.joint_state.velocity.copy_from_slice(qd.as_slice());
+        self.joint_state.clone()
+    }
+
+    /// `/tf`: every link and every object relative to the base frame.
+    pub fn tf(&self) -> TFMessage {
+        let stamp = self.now();
+        let names = self.sim.model().link_names();
+        let poses = self.sim.link_poses();
+        let links = names
+            .iter()
+            .enumerate()
+            .skip(1)
+            .map(|(i, name)| transform(&self.base_frame, name, stamp, poses.get(i)));
+        let objects = self
+            .sim
+            .objects()
+            .iter()
+            .map(|o| transform(&self.base_frame, &o.name, stamp, &o.pose));
+        TFMessage { transforms: links.chain(objects).collect() }
+    }
+
+    /// `/tf_static`: the camera's optical frame.
+    pub fn tf_static(&self) -> TFMessage {
+        let camera = &self.sim.scene().camera;
+        TFMessage {
+            transforms: vec![transform(
+                &self.base_frame,
+                &camera.frame_id,
+                self.now(),
+                &camera.pose.isometry(),
+            )],
+        }
+    }
+}
+
+fn transform(parent: &str, child: &str, stamp: Time, pose: &Isometry3<f64>) -> TransformStamped {
+    let t = &pose.translation.vector;
+    let q = pose.rotation.quaternion();
+    TransformStamped {
+        header: Header { stamp, frame_id: parent.to_owned() },
+        child_frame_id: child.to_owned(),
+        transform: Transform {
+            translation: Vector3 { x: t.x, y: t.y, z: t.z },
+            rotation: Quaternion { x: q.i, y: q.j, z: q.k, w: q.w },
+        },
+    }
+}
+
+/// Runs the node until Ctrl-C or `duration` simulated seconds.
+pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>) -> Result<()> {
+    let commands = node.subscription::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())?;
+    let gripper = node.subscription::<RosString>("/lwr/gripper_command", &qos::reliable())?;
+    let wrenches = node.subscription::<WrenchStamped>("/external_wrench", &qos::reliable())?;
+    let clock = node.publisher::<Clock>("/clock", &qos::clock())?;
+    let joint_states = node.publisher::<JointState>("/joint_states", &qos::reliable())?;
+    let tf = node.publisher::<TFMessage>("/tf", &qos::reliable_depth(100))?;
+    let tf_static = node.publisher::<TFMessage>("/tf_static", &qos::latched())?;
+    tf_static.publish(lwr.tf_static())?;
+    tracing::info!(
+        "lwr_sim running: {} joints, {} objects, pacing {pacing:?}",
+        lwr.joint_state.name.len(),
+        lwr.sim.objects().len()
+    );
+
+    let end_ns = duration.map(|d| (d * 1e9) as i64);
+    let start = Instant::now();
+    let mut last_report = Instant::now();
+    while !cowork_ros::shutdown::requested() {
+        if end_ns.is_some_and(|end| lwr.sim.time_ns() >= end) {
+            break;
+        }
+        while let Some(m) = commands.take() {
+            lwr.on_velocity_command(&m);
+        }
+        while let Some(m) = gripper.take() {
+            lwr.on_gripper_command(&m);
+        }
+        while let Some(m) = wrenches.take() {
+            lwr.on_wrench(&m);
+        }
+        let due = lwr.step();
+        if due.clock {
+            clock.publish(lwr.clock())?;
+        }
+        if due.joint_states {
+            joint_states.publish(lwr.joint_states())?;
+        }
+        if due.tf {
+            tf.publish(lwr.tf())?;
+        }
+        let sim_s = lwr.sim.time_ns() as f64 * 1e-9;
+        if let Pacing::Rate(rate) = pacing {
+            let target = start + Duration::from_secs_f64(sim_s / rate);
+            let now = Instant::now();
+            if target > now {
+                std::thread::sleep(target - now);
+            }
+        }
+        if last_report.elapsed() >= Duration::from_secs(10) {
+            last_report = Instant::now();
+            tracing::info!(
+                "t_sim = {sim_s:.1} s, real-time factor {:.2}",
+                sim_s / start.elapsed().as_secs_f64()
+            );
+        }
+    }
+    tracing::info!("lwr_sim stopped at t_sim = {:.3} s", lwr.sim.time_ns() as f64 * 1e-9);
+    Ok(())
+}

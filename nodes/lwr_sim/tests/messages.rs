@@ -1,0 +1,108 @@
+//! The node's message handling, driven step by step without a network.
+
+use cowork_msgs::geometry_msgs::{Vector3, Wrench as RosWrench, WrenchStamped};
+use cowork_msgs::std_msgs::{Float64MultiArray, Header, String as RosString};
+use cowork_robot::RobotModel;
+use cowork_sim::{Scene, Simulator};
+use lwr_sim::{LwrSim, LwrSimConfig};
+
+fn root() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn config() -> LwrSimConfig {
+    cowork_ros::params::load(&root().join("config/lwr_sim.yaml"), "lwr_sim").expect("bundled parameters load")
+}
+
+fn node() -> LwrSim {
+    let config = config();
+    config.validate("lwr_sim.yaml").unwrap();
+    let model = RobotModel::from_urdf_file(&root().join("config/robot/lwr4plus.urdf")).unwrap();
+    let scene = Scene::from_file(&root().join("config/scenes/kitchen.yaml")).unwrap();
+    LwrSim::new(Simulator::new(model, scene, config.simulation.clone()).unwrap(), config)
+}
+
+#[test]
+fn topics_are_due_at_their_rates_and_stamped_with_sim_time() {
+    let mut n = node();
+    let mut clock = 0;
+    let mut joints = 0;
+    let mut tf = 0;
+    for _ in 0..1000 {
+        let due = n.step();
+        clock += due.clock as u32;
+        joints += due.joint_states as u32;
+        tf += due.tf as u32;
+    }
+    assert_eq!((clock, joints, tf), (1000, 1000, 50));
+    let c = n.clock();
+    assert_eq!((c.clock.sec, c.clock.nanosec), (1, 0));
+    let js = n.joint_states();
+    assert_eq!(js.header.stamp, c.clock);
+    assert_eq!(js.name.len(), 7);
+}
+
+#[test]
+fn tf_has_every_link_and_object_and_the_camera_is_static() {
+    let n = node();
+    let tf = n.tf();
+    let children: Vec<&str> = tf.transforms.iter().map(|t| t.child_frame_id.as_str()).collect();
+    for want in ["lwr_link_1", "lwr_link_7", "bottle", "cup", "coffee"] {
+        assert!(children.contains(&want), "{want} missing from {children:?}");
+    }
+    assert!(tf.transforms.iter().all(|t| t.header.frame_id == "lwr_base_link"));
+    let st = n.tf_static();
+    assert_eq!(st.transforms[0].child_frame_id, "camera_depth_optical_frame");
+    let q = &st.transforms[0].transform.rotation;
+    assert!(((q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w) - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn bad_messages_are_ignored_and_the_robot_is_held() {
+    let mut n = node();
+    let q0 = *n.simulator().joint_positions();
+    n.on_velocity_command(&Float64MultiArray { data: vec![0.5; 7], ..Default::default() });
+    n.on_velocity_command(&Float64MultiArray { data: vec![f64::NAN; 7], ..Default::default() });
+    n.on_gripper_command(&RosString { data: "grab it".into() });
+    n.on_wrench(&WrenchStamped {
+        header: Header { frame_id: "no_such_frame".into(), ..Default::default() },
+        wrench: RosWrench { force: Vector3 { x: 50.0, y: 0.0, z: 0.0 }, ..Default::default() },
+    });
+    n.on_wrench(&WrenchStamped {
+        wrench: RosWrench { force: Vector3 { x: f64::INFINITY, y: 0.0, z: 0.0 }, ..Default::default() },
+        ..Default::default()
+    });
+    for _ in 0..100 {
+        n.step();
+    }
+    assert_eq!(*n.simulator().joint_positions(), q0, "nothing moved the robot");
+}
+
+#[test]
+fn wrench_in_a_link_frame_is_rotated_into_the_base_frame() {
+    // Push the tool along its own z axis (pointing down at the start pose): the tool moves down.
+    let mut n = node();
+    let p0 = n.simulator().tool_pose().translation.vector;
+    let tool_link = n.simulator().model().link_names()[n.simulator().model().tip_link()].clone();
+    for _ in 0..100 {
+        n.on_wrench(&WrenchStamped {
+            header: Header { frame_id: tool_link.clone(), ..Default::default() },
+            wrench: RosWrench { force: Vector3 { x: 0.0, y: 0.0, z: 10.0 }, ..Default::default() },
+        });
+        n.step();
+    }
+    let dp = n.simulator().tool_pose().translation.vector - p0;
+    let axis = n.simulator().tool_pose().rotation * nalgebra::Vector3::z();
+    assert!(dp.dot(&axis) > 0.004, "moved {dp} along the tool axis {axis}");
+}
+
+#[test]
+fn parameter_errors_name_the_file_and_key() {
+    let text = "lwr_sim:\n  ros__parameters:\n    simulation:\n      step_s: .nan\n";
+    let cfg: LwrSimConfig = cowork_ros::params::from_str(text, "lwr_sim", "bad.yaml").unwrap();
+    let e = cfg.validate("bad.yaml").unwrap_err().to_string();
+    assert!(e.contains("bad.yaml") && e.contains("step_s"), "{e}");
+    let text = "lwr_sim:\n  ros__parameters:\n    publish:\n      tf_hz: 5\n";
+    let e = cowork_ros::params::from_str::<LwrSimConfig>(text, "lwr_sim", "bad.yaml").unwrap_err().to_string();
+    assert!(e.contains("bad.yaml") && e.contains("tf_hz"), "{e}");
+}
