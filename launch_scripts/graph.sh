@@ -56,7 +56,7 @@ stop_all() {
 trap stop_all INT TERM EXIT
 
 start lwr_sim $bin/lwr_sim --scene "$scene" "${rate_args[@]}" "${duration_args[@]}"
-start attentional_supervisor $bin/attentional_supervisor --ltm config/tasks/kitchen.schema --task pourDrink
+start attentional_supervisor $bin/attentional_supervisor --ltm config/tasks/kitchen.schema --task pourDrink --use-sim-time --save-ltm out/kitchen.learned.schema
 
 # Wait until any node exits (e.g. --duration reached) or a signal arrives.
 wait -n "${pids[@]}" || true
