@@ -25,60 +25,48 @@ use nalgebra::{Matrix3, Matrix6, SMatrix};
 /// `damping` must be finite and ≥ 0 (units of J's entries; the position rows are m/rad, so mixing
 /// rows makes λ a compromise); a NaN or ∞ in `J` or `damping` gives an all-NaN result.
 pub fn damped_pseudo_inverse(j: &Jacobian, damping: f64) -> JacobianPinv {
-    let mut a: Matrix6<f64> = j * j.transpose();
-    for i in 0..6 {
-        a[(i, i)] += damping * damping;
-    }
-    // The iterative eigen solver is not meant for NaN/∞; answer NaN at once.
-    if !a.iter().all(|x| x.is_finite()) {
-        return JacobianPinv::from_element(f64::NAN);
-    }
-    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) {
-        a.cholesky()
-    } else {
-        None
-    };
-    match cholesky {
-        Some(ch) => ch.solve(j).transpose(),
-        None => {
-            let eig = a.symmetric_eigen();
-            let inv = pinv_from_eigen(eig.eigenvalues.as_slice(), 6);
-            let a_pinv = eig.eigenvectors
-                * Matrix6::from_diagonal(&inv.fixed_rows::<6>(0).into_owned())
-                * eig.eigenvectors.transpose();
-            j.transpose() * a_pinv
-        }
-    }
+    damped_pinv!(j, damping, Matrix6, JacobianPinv, 6)
 }
 
 /// Damped pseudo-inverse of a 3×7 position Jacobian (link-point tasks): `Jᵀ (J Jᵀ + λ² I)⁻¹`,
 /// with the same rules as [`damped_pseudo_inverse`]. λ is in m/rad.
 pub fn damped_pseudo_inverse_3(j: &PositionJacobian, damping: f64) -> PositionJacobianPinv {
-    let mut a: Matrix3<f64> = j * j.transpose();
-    for i in 0..3 {
-        a[(i, i)] += damping * damping;
-    }
-    // The iterative eigen solver is not meant for NaN/∞; answer NaN at once.
-    if !a.iter().all(|x| x.is_finite()) {
-        return PositionJacobianPinv::from_element(f64::NAN);
-    }
-    let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) {
-        a.cholesky()
-    } else {
-        None
-    };
-    match cholesky {
-        Some(ch) => ch.solve(j).transpose(),
-        None => {
-            let eig = a.symmetric_eigen();
-            let inv = pinv_from_eigen(eig.eigenvalues.as_slice(), 3);
-            let a_pinv = eig.eigenvectors
-                * Matrix3::from_diagonal(&inv.fixed_rows::<3>(0).into_owned())
-                * eig.eigenvectors.transpose();
-            j.transpose() * a_pinv
-        }
-    }
+    damped_pinv!(j, damping, Matrix3, PositionJacobianPinv, 3)
 }
+
+/// The body of both pseudo-inverses: one algorithm, instantiated for R = 6 and R = 3 rows
+/// (nalgebra's Cholesky and symmetric eigen-decomposition need concrete sizes).
+macro_rules! damped_pinv {
+    ($j:expr, $damping:expr, $square:ident, $pinv:ident, $rows:literal) => {{
+        let j = $j;
+        let damping = $damping;
+        let mut a: $square<f64> = j * j.transpose();
+        for i in 0..$rows {
+            a[(i, i)] += damping * damping;
+        }
+        // The iterative eigen solver is not meant for NaN/∞; answer NaN at once.
+        if !a.iter().all(|x| x.is_finite()) {
+            return $pinv::from_element(f64::NAN);
+        }
+        let cholesky = if damping_dominates_rounding(damping, a.diagonal().as_slice()) {
+            a.cholesky()
+        } else {
+            None
+        };
+        match cholesky {
+            Some(ch) => ch.solve(j).transpose(),
+            None => {
+                let eig = a.symmetric_eigen();
+                let inv = pinv_from_eigen(eig.eigenvalues.as_slice(), $rows);
+                let a_pinv = eig.eigenvectors
+                    * $square::from_diagonal(&inv.fixed_rows::<$rows>(0).into_owned())
+                    * eig.eigenvectors.transpose();
+                j.transpose() * a_pinv
+            }
+        }
+    }};
+}
+use damped_pinv;
 
 /// Relative threshold below which an eigenvalue of `J Jᵀ` (a squared singular value) counts as
 /// zero: rounding in forming `J Jᵀ` is of order ε·max eigenvalue.
