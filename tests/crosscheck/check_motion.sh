@@ -12,6 +12,8 @@ target="${CARGO_TARGET_DIR:-target}"
 tool="$target/release/examples/motion_tool"
 cargo build --release -p cowork_motion --example motion_tool 2>&1 | tail -n 1
 py="$VENV/bin/python"
+# One BLAS thread: fair against our single-threaded EM, and no oversubscription on small machines.
+export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 status=0
