@@ -432,10 +432,16 @@ fn em(data: &[f64], d: usize, mut gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
             for c in 0..k {
                 row[c] = log_priors[c] + log_pdf_with(&f, c, &gmm.means[c], x, &mut z);
             }
-            let lse = logsumexp(row);
-            ll += lse;
+            // One exp per component: normalise exp(v − max) instead of exp(v − logsumexp).
+            let m = row.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            let mut sum = 0.0;
             for v in row.iter_mut() {
-                *v = (*v - lse).exp();
+                *v = (*v - m).exp();
+                sum += *v;
+            }
+            ll += m + sum.ln();
+            for v in row.iter_mut() {
+                *v /= sum;
             }
         }
         let mean_ll = ll / n as f64;

@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::ds::FirstOrderDs;
 use crate::error::{MotionError, Result, check_dim, check_finite, invalid};
 use crate::gmm::{EmConfig, Gmm};
-use crate::linalg::{LN_2PI, chol_inverse, chol_logdet, cholesky, logsumexp, solve_lower};
+use crate::linalg::{LN_2PI, chol_inverse, chol_logdet, cholesky, solve_lower};
 
 /// Largest number of mixture components a [`Gmr`] accepts (stack buffers of the query).
 pub const MAX_COMPONENTS: usize = 64;
@@ -171,9 +171,15 @@ impl Gmr {
             log_pdf[c] = comp.log_norm - 0.5 * m;
             h[c] = comp.ln_prior + log_pdf[c];
         }
-        let lse = logsumexp(&h[..k]);
+        // One exp per component: normalise exp(v − max).
+        let m = h[..k].iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let mut sum = 0.0;
         for v in h[..k].iter_mut() {
-            *v = (*v - lse).exp();
+            *v = (*v - m).exp();
+            sum += *v;
+        }
+        for v in h[..k].iter_mut() {
+            *v /= sum;
         }
         Ok(())
     }
