@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use cowork_motion::lasa::{LasaOptions, evaluate_external, evaluate_motion, format_table, list_motions, load_motion};
+use cowork_motion::lasa::{
+    LasaOptions, evaluate_external, evaluate_motion, format_table, list_motions, load_motion,
+};
 
 /// Arguments of `cowork bench lasa`.
 #[derive(Debug, clap::Args)]
@@ -33,9 +35,16 @@ pub struct BenchLasaArgs {
 /// Runs the benchmark and prints the table.
 pub fn run(args: BenchLasaArgs) -> Result<()> {
     let Some(root) = args.data else {
-        bail!("no LASA data: export it with `python tests/crosscheck/lasa_export.py DIR` and pass --data DIR");
+        bail!(
+            "no LASA data: export it with `python tests/crosscheck/lasa_export.py DIR` and pass --data DIR"
+        );
     };
-    let opts = LasaOptions { random_starts: args.random_starts, subsample: args.subsample.max(1), k_max: args.kmax.max(1), ..LasaOptions::default() };
+    let opts = LasaOptions {
+        random_starts: args.random_starts,
+        subsample: args.subsample.max(1),
+        k_max: args.kmax.max(1),
+        ..LasaOptions::default()
+    };
     let motions = list_motions(&root).with_context(|| format!("listing {}", root.display()))?;
     if motions.is_empty() {
         bail!("{}: no motion folders", root.display());
@@ -48,11 +57,23 @@ pub fn run(args: BenchLasaArgs) -> Result<()> {
         let demos = load_motion(&dir).with_context(|| format!("loading {}", dir.display()))?;
         rows.push(evaluate_motion(&name, &demos, &opts).with_context(|| format!("motion {name}"))?);
         if let Some(e) = &args.external {
-            ext.push(evaluate_external(&demos, &e.join(&name)).with_context(|| format!("external results for {name}"))?);
+            ext.push(
+                evaluate_external(&demos, &e.join(&name))
+                    .with_context(|| format!("external results for {name}"))?,
+            );
         }
     }
-    println!("LASA handwriting: {take} motions, GMR/C-GMR by EM+BIC (K ≤ {}), reproduction at dt = {} s", opts.k_max, opts.dt);
-    println!("area: median DTW-aligned area (mm²); Ve: velocity RMSE (mm/s); demo/rand: starts reaching the target within {} mm", opts.tol);
-    print!("{}", format_table(&rows, args.external.as_ref().map(|_| ext.as_slice())));
+    println!(
+        "LASA handwriting: {take} motions, GMR/C-GMR by EM+BIC (K ≤ {}), reproduction at dt = {} s",
+        opts.k_max, opts.dt
+    );
+    println!(
+        "area: median DTW-aligned area (mm²); Ve: velocity RMSE (mm/s); demo/rand: starts reaching the target within {} mm",
+        opts.tol
+    );
+    print!(
+        "{}",
+        format_table(&rows, args.external.as_ref().map(|_| ext.as_slice()))
+    );
     Ok(())
 }

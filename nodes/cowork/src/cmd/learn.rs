@@ -5,7 +5,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use cowork_motion::cgmr::Components;
-use cowork_motion::csv_io::{read_demonstration, read_dhb, read_points, read_poses, write_dhb, write_poses, write_trajectory, write_velocities};
+use cowork_motion::csv_io::{
+    read_demonstration, read_dhb, read_points, read_poses, write_dhb, write_poses,
+    write_trajectory, write_velocities,
+};
 use cowork_motion::dhb::Dhb;
 use cowork_motion::model::{FitOptions, Model, ModelKind};
 use cowork_motion::{RolloutConfig, Trajectory};
@@ -47,7 +50,12 @@ pub enum LearnCommand {
         #[arg(long)]
         model: PathBuf,
         /// Start position, comma separated.
-        #[arg(long, value_delimiter = ',', allow_hyphen_values = true, required = true)]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            allow_hyphen_values = true,
+            required = true
+        )]
         start: Vec<f64>,
         /// Goal position (default: the learned one).
         #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
@@ -95,12 +103,27 @@ pub enum LearnCommand {
 /// Runs one `cowork learn` subcommand.
 pub fn run(cmd: LearnCommand) -> Result<()> {
     match cmd {
-        LearnCommand::Fit { model, demos, components, bic, subsample, states, basis, output } => {
+        LearnCommand::Fit {
+            model,
+            demos,
+            components,
+            bic,
+            subsample,
+            states,
+            basis,
+            output,
+        } => {
             let demos = demos
                 .iter()
-                .map(|p| read_demonstration(p).with_context(|| format!("reading demonstration {}", p.display())))
+                .map(|p| {
+                    read_demonstration(p)
+                        .with_context(|| format!("reading demonstration {}", p.display()))
+                })
                 .collect::<Result<Vec<_>>>()?;
-            let mut opts = FitOptions { subsample, ..FitOptions::default() };
+            let mut opts = FitOptions {
+                subsample,
+                ..FitOptions::default()
+            };
             opts.components = match (components, bic) {
                 (Some(k), _) => Components::Fixed(k),
                 (None, Some(kmax)) => Components::Bic(kmax),
@@ -113,36 +136,72 @@ pub fn run(cmd: LearnCommand) -> Result<()> {
                 opts.dmp.n_basis = b;
             }
             let m = Model::fit(model, &demos, &opts).context("fitting the model")?;
-            m.save(&output).with_context(|| format!("writing {}", output.display()))?;
-            eprintln!("{} model of dimension {} written to {}", m.kind(), m.dim(), output.display());
+            m.save(&output)
+                .with_context(|| format!("writing {}", output.display()))?;
+            eprintln!(
+                "{} model of dimension {} written to {}",
+                m.kind(),
+                m.dim(),
+                output.display()
+            );
         }
-        LearnCommand::Rollout { model, start, goal, dt, max_steps, tol, output } => {
+        LearnCommand::Rollout {
+            model,
+            start,
+            goal,
+            dt,
+            max_steps,
+            tol,
+            output,
+        } => {
             let m = Model::load(&model).with_context(|| format!("loading {}", model.display()))?;
             let cfg = RolloutConfig { dt, max_steps, tol };
-            let tr: Trajectory = m.rollout(&start, goal.as_deref(), &cfg).context("rollout")?;
-            write_trajectory(&output, &tr).with_context(|| format!("writing {}", output.display()))?;
+            let tr: Trajectory = m
+                .rollout(&start, goal.as_deref(), &cfg)
+                .context("rollout")?;
+            write_trajectory(&output, &tr)
+                .with_context(|| format!("writing {}", output.display()))?;
             eprintln!("{} samples, reached the goal: {}", tr.len(), tr.reached);
         }
-        LearnCommand::Eval { model, points, output } => {
+        LearnCommand::Eval {
+            model,
+            points,
+            output,
+        } => {
             let m = Model::load(&model).with_context(|| format!("loading {}", model.display()))?;
-            let (n, pts) = read_points(&points).with_context(|| format!("reading {}", points.display()))?;
+            let (n, pts) =
+                read_points(&points).with_context(|| format!("reading {}", points.display()))?;
             if n != m.dim() {
-                bail!("{}: {n} columns, the model has dimension {}", points.display(), m.dim());
+                bail!(
+                    "{}: {n} columns, the model has dimension {}",
+                    points.display(),
+                    m.dim()
+                );
             }
             let v = m.eval(&pts).context("evaluating the velocity field")?;
-            write_velocities(&output, n, &v).with_context(|| format!("writing {}", output.display()))?;
+            write_velocities(&output, n, &v)
+                .with_context(|| format!("writing {}", output.display()))?;
         }
-        LearnCommand::Dhb { pose, reconstruct, output } => {
+        LearnCommand::Dhb {
+            pose,
+            reconstruct,
+            output,
+        } => {
             if reconstruct {
-                let (t, t_end, dhb) = read_dhb(&pose).with_context(|| format!("reading {}", pose.display()))?;
+                let (t, t_end, dhb) =
+                    read_dhb(&pose).with_context(|| format!("reading {}", pose.display()))?;
                 let poses = dhb.reconstruct_poses(1.0, &Rotation3::identity(), &Vector3::zeros());
                 let mut times = t;
                 times.push(t_end);
-                write_poses(&output, &times, &poses).with_context(|| format!("writing {}", output.display()))?;
+                write_poses(&output, &times, &poses)
+                    .with_context(|| format!("writing {}", output.display()))?;
             } else {
-                let (t, poses) = read_poses(&pose).with_context(|| format!("reading {}", pose.display()))?;
-                let dhb = Dhb::from_poses(&poses).with_context(|| format!("DHB invariants of {}", pose.display()))?;
-                write_dhb(&output, &t, &dhb).with_context(|| format!("writing {}", output.display()))?;
+                let (t, poses) =
+                    read_poses(&pose).with_context(|| format!("reading {}", pose.display()))?;
+                let dhb = Dhb::from_poses(&poses)
+                    .with_context(|| format!("DHB invariants of {}", pose.display()))?;
+                write_dhb(&output, &t, &dhb)
+                    .with_context(|| format!("writing {}", output.display()))?;
             }
         }
     }

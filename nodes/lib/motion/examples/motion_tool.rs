@@ -15,15 +15,26 @@ use std::time::Instant;
 use cowork_motion::cgmr::{Components, fit_gmr_ds};
 use cowork_motion::csv_io::{read_demonstration, read_points, write_trajectory};
 use cowork_motion::dmp::{Dmp, DmpConfig};
-use cowork_motion::lasa::{LasaOptions, evaluate_external, evaluate_motion, format_table, list_motions, load_motion};
+use cowork_motion::lasa::{
+    LasaOptions, evaluate_external, evaluate_motion, format_table, list_motions, load_motion,
+};
 use cowork_motion::{Gmm, Gmr, Result};
 
 fn arg(args: &[String], i: usize) -> Result<&str> {
-    args.get(i).map(String::as_str).ok_or_else(|| cowork_motion::MotionError::InvalidParameter { name: format!("argument {i}"), reason: "missing".into() })
+    args.get(i)
+        .map(String::as_str)
+        .ok_or_else(|| cowork_motion::MotionError::InvalidParameter {
+            name: format!("argument {i}"),
+            reason: "missing".into(),
+        })
 }
 
 fn num<T: std::str::FromStr>(s: &str) -> Result<T> {
-    s.parse().map_err(|_| cowork_motion::MotionError::InvalidParameter { name: s.into(), reason: "not a number".into() })
+    s.parse()
+        .map_err(|_| cowork_motion::MotionError::InvalidParameter {
+            name: s.into(),
+            reason: "not a number".into(),
+        })
 }
 
 fn main() -> std::process::ExitCode {
@@ -40,28 +51,60 @@ fn main() -> std::process::ExitCode {
 fn run(args: &[String]) -> Result<()> {
     match arg(args, 1)? {
         "gmr" => {
-            let text = std::fs::read_to_string(arg(args, 2)?).map_err(|source| cowork_motion::MotionError::Io { file: arg(args, 2).unwrap_or("").into(), source })?;
-            let gmm: Gmm = serde_json::from_str(&text).map_err(|e| cowork_motion::MotionError::InvalidParameter { name: "gmm json".into(), reason: e.to_string() })?;
+            let text = std::fs::read_to_string(arg(args, 2)?).map_err(|source| {
+                cowork_motion::MotionError::Io {
+                    file: arg(args, 2).unwrap_or("").into(),
+                    source,
+                }
+            })?;
+            let gmm: Gmm = serde_json::from_str(&text).map_err(|e| {
+                cowork_motion::MotionError::InvalidParameter {
+                    name: "gmm json".into(),
+                    reason: e.to_string(),
+                }
+            })?;
             let n_in: usize = num(arg(args, 3)?)?;
             let gmr = Gmr::new(gmm, n_in)?;
             let (n, pts) = read_points(Path::new(arg(args, 4)?))?;
             let mut out = vec![0.0; gmr.n_out()];
             for x in pts.chunks(n) {
                 gmr.predict(x, &mut out)?;
-                println!("{}", out.iter().map(|v| format!("{v:.17e}")).collect::<Vec<_>>().join(","));
+                println!(
+                    "{}",
+                    out.iter()
+                        .map(|v| format!("{v:.17e}"))
+                        .collect::<Vec<_>>()
+                        .join(",")
+                );
             }
         }
         "dtw" => {
-            let text = std::fs::read_to_string(arg(args, 2)?).map_err(|source| cowork_motion::MotionError::Io { file: arg(args, 2).unwrap_or("").into(), source })?;
+            let text = std::fs::read_to_string(arg(args, 2)?).map_err(|source| {
+                cowork_motion::MotionError::Io {
+                    file: arg(args, 2).unwrap_or("").into(),
+                    source,
+                }
+            })?;
             for line in text.lines().filter(|l| !l.trim().is_empty()) {
-                let (a, b) = line.split_once(';').ok_or_else(|| cowork_motion::MotionError::InvalidParameter { name: "pair".into(), reason: "expected a;b".into() })?;
+                let (a, b) = line.split_once(';').ok_or_else(|| {
+                    cowork_motion::MotionError::InvalidParameter {
+                        name: "pair".into(),
+                        reason: "expected a;b".into(),
+                    }
+                })?;
                 let p = |s: &str| s.split(',').map(num::<f64>).collect::<Result<Vec<f64>>>();
-                println!("{:.17e}", cowork_motion::dtw::dtw_distance(&p(a)?, &p(b)?, 1, None)?);
+                println!(
+                    "{:.17e}",
+                    cowork_motion::dtw::dtw_distance(&p(a)?, &p(b)?, 1, None)?
+                );
             }
         }
         "dmp" => {
             let demo = read_demonstration(Path::new(arg(args, 2)?))?;
-            let cfg = DmpConfig { n_basis: num(arg(args, 3)?)?, ..DmpConfig::default() };
+            let cfg = DmpConfig {
+                n_basis: num(arg(args, 3)?)?,
+                ..DmpConfig::default()
+            };
             let repeats: usize = num(arg(args, 4)?)?;
             let dt = demo.duration() / (demo.len() - 1) as f64;
             let mut times = Vec::new();
@@ -86,7 +129,12 @@ fn run(args: &[String]) -> Result<()> {
             let sub: usize = num(arg(args, 5)?)?;
             for (name, dir) in list_motions(root)?.into_iter().take(motions) {
                 let demos = load_motion(&dir)?;
-                let (ds, _) = fit_gmr_ds(&demos, Components::Bic(kmax), &LasaOptions::default().em, sub)?;
+                let (ds, _) = fit_gmr_ds(
+                    &demos,
+                    Components::Bic(kmax),
+                    &LasaOptions::default().em,
+                    sub,
+                )?;
                 println!("{name},{}", ds.gmr.n_components());
             }
         }
@@ -100,7 +148,14 @@ fn run(args: &[String]) -> Result<()> {
             for (name, dir) in list_motions(root)?.into_iter().take(motions) {
                 let demos = load_motion(&dir)?;
                 let row = evaluate_motion(&name, &demos, &opts)?;
-                eprintln!("{name}: K={} gmr area {:.1} cgmr area {:.1} rand {:.2}/{:.2}", row.k, row.gmr.area, row.cgmr.area, row.gmr.random_reached, row.cgmr.random_reached);
+                eprintln!(
+                    "{name}: K={} gmr area {:.1} cgmr area {:.1} rand {:.2}/{:.2}",
+                    row.k,
+                    row.gmr.area,
+                    row.cgmr.area,
+                    row.gmr.random_reached,
+                    row.cgmr.random_reached
+                );
                 rows.push(row);
                 if let Some(e) = ext {
                     externals.push(evaluate_external(&demos, &e.join(&name))?);
@@ -109,7 +164,10 @@ fn run(args: &[String]) -> Result<()> {
             print!("{}", format_table(&rows, ext.map(|_| externals.as_slice())));
         }
         other => {
-            return Err(cowork_motion::MotionError::InvalidParameter { name: "subcommand".into(), reason: format!("unknown `{other}`") });
+            return Err(cowork_motion::MotionError::InvalidParameter {
+                name: "subcommand".into(),
+                reason: format!("unknown `{other}`"),
+            });
         }
     }
     Ok(())

@@ -23,7 +23,13 @@ use crate::gmr::{GmrDs, MAX_COMPONENTS, MAX_DIM};
 /// µ₁ matrix measure (column form) of a row-major `n × n` matrix: `max_j (c_jj + Σ_{i≠j} |c_ij|)`.
 pub fn mu1(c: &[f64], n: usize) -> f64 {
     (0..n)
-        .map(|j| c[j * n + j] + (0..n).filter(|&i| i != j).map(|i| c[i * n + j].abs()).sum::<f64>())
+        .map(|j| {
+            c[j * n + j]
+                + (0..n)
+                    .filter(|&i| i != j)
+                    .map(|i| c[i * n + j].abs())
+                    .sum::<f64>()
+        })
         .fold(f64::NEG_INFINITY, f64::max)
 }
 
@@ -72,7 +78,14 @@ pub struct CgmrConfig {
 
 impl Default for CgmrConfig {
     fn default() -> Self {
-        Self { alpha: 0.1, ball_fraction: 0.15, gamma: 20.0, t_max_factor: 1.5, p: 2.0, c_min: 1.0 }
+        Self {
+            alpha: 0.1,
+            ball_fraction: 0.15,
+            gamma: 20.0,
+            t_max_factor: 1.5,
+            p: 2.0,
+            c_min: 1.0,
+        }
     }
 }
 
@@ -80,7 +93,11 @@ impl CgmrConfig {
     /// Rejects NaN and out-of-range values.
     pub fn validate(&self) -> Result<()> {
         let pos = |name: &str, v: f64| {
-            if v > 0.0 && v.is_finite() { Ok(()) } else { Err(invalid(name, format!("must be finite and > 0, got {v}"))) }
+            if v > 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(invalid(name, format!("must be finite and > 0, got {v}")))
+            }
         };
         pos("alpha", self.alpha)?;
         if self.alpha > 1.0 {
@@ -152,7 +169,12 @@ pub fn ds_training_data(demos: &[Demonstration], target: &[f64], step: usize) ->
 }
 
 /// Fits a GMR DS to demonstrations (target = mean end point).
-pub fn fit_gmr_ds(demos: &[Demonstration], components: Components, em: &EmConfig, step: usize) -> Result<(GmrDs, Option<BicSelection>)> {
+pub fn fit_gmr_ds(
+    demos: &[Demonstration],
+    components: Components,
+    em: &EmConfig,
+    step: usize,
+) -> Result<(GmrDs, Option<BicSelection>)> {
     let target = mean_end_point(demos)?;
     let n = target.len();
     let data = ds_training_data(demos, &target, step)?;
@@ -168,7 +190,13 @@ pub fn fit_gmr_ds(demos: &[Demonstration], components: Components, em: &EmConfig
 
 impl Cgmr {
     /// Learns GMR (EM, optionally BIC) and the C-GMR extras from the demonstrations.
-    pub fn fit(demos: &[Demonstration], components: Components, em: &EmConfig, step: usize, cfg: &CgmrConfig) -> Result<Self> {
+    pub fn fit(
+        demos: &[Demonstration],
+        components: Components,
+        em: &EmConfig,
+        step: usize,
+        cfg: &CgmrConfig,
+    ) -> Result<Self> {
         let (ds, _) = fit_gmr_ds(demos, components, em, step)?;
         // δ_k from the same (subsampled) training positions EM saw, as in Sec. 3.1.3.
         let training: Vec<Demonstration> = demos.iter().map(|d| d.subsampled(step)).collect();
@@ -180,7 +208,14 @@ impl Cgmr {
         cfg.validate()?;
         let n = common_dim(demos)?;
         check_dim("C-GMR demonstrations vs model", ds.dim(), n)?;
-        let mut me = Self { ds, u: Vec::new(), ln_delta: Vec::new(), ball_radius: 0.0, t_max: 0.0, config: cfg.clone() };
+        let mut me = Self {
+            ds,
+            u: Vec::new(),
+            ln_delta: Vec::new(),
+            ball_radius: 0.0,
+            t_max: 0.0,
+            config: cfg.clone(),
+        };
         me.compute_extras(demos)?;
         Ok(me)
     }
@@ -189,7 +224,11 @@ impl Cgmr {
     /// demonstrations (old and new), then gains, regions and `t_max` are recomputed.
     pub fn retrain(&mut self, demos: &[Demonstration], em: &EmConfig, step: usize) -> Result<()> {
         let target = mean_end_point(demos)?;
-        check_dim("C-GMR re-training demonstrations", self.ds.dim(), target.len())?;
+        check_dim(
+            "C-GMR re-training demonstrations",
+            self.ds.dim(),
+            target.len(),
+        )?;
         let data = ds_training_data(demos, &target, step)?;
         let fit = Gmm::fit_from(&data, self.ds.gmr.gmm(), em)?;
         self.ds = GmrDs::new(fit.gmm, target)?;
@@ -200,7 +239,9 @@ impl Cgmr {
     fn compute_extras(&mut self, demos: &[Demonstration]) -> Result<()> {
         let n = self.ds.dim();
         let k = self.ds.gmr.n_components();
-        self.u = (0..k).map(|c| stabilizing_gains(self.ds.gmr.gain(c), n, self.config.p, self.config.c_min)).collect();
+        self.u = (0..k)
+            .map(|c| stabilizing_gains(self.ds.gmr.gain(c), n, self.config.p, self.config.c_min))
+            .collect();
         // δ_k: cluster training positions by the largest N(x | μ_k, Σ_k), keep α·min per cluster.
         let mut min_lp = vec![f64::INFINITY; k];
         let mut h = [0.0; MAX_COMPONENTS];
@@ -213,14 +254,36 @@ impl Cgmr {
                 for j in 0..n {
                     rel[j] = d.position(i)[j] - self.ds.target[j];
                 }
-                self.ds.gmr.activations(&rel[..n], &mut h[..k], &mut lp[..k])?;
-                let (best, v) = lp[..k].iter().enumerate().fold((0, f64::NEG_INFINITY), |acc, (c, v)| if *v > acc.1 { (c, *v) } else { acc });
+                self.ds
+                    .gmr
+                    .activations(&rel[..n], &mut h[..k], &mut lp[..k])?;
+                let (best, v) = lp[..k]
+                    .iter()
+                    .enumerate()
+                    .fold((0, f64::NEG_INFINITY), |acc, (c, v)| {
+                        if *v > acc.1 { (c, *v) } else { acc }
+                    });
                 min_lp[best] = min_lp[best].min(v);
             }
-            start_dist += d.position(0).iter().zip(&self.ds.target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+            start_dist += d
+                .position(0)
+                .iter()
+                .zip(&self.ds.target)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
             longest = longest.max(d.duration());
         }
-        self.ln_delta = min_lp.iter().map(|m| if m.is_finite() { self.config.alpha.ln() + m } else { f64::MAX }).collect();
+        self.ln_delta = min_lp
+            .iter()
+            .map(|m| {
+                if m.is_finite() {
+                    self.config.alpha.ln() + m
+                } else {
+                    f64::MAX
+                }
+            })
+            .collect();
         self.ball_radius = self.config.ball_fraction * start_dist / demos.len() as f64;
         self.t_max = self.config.t_max_factor * longest;
         Ok(())
@@ -282,7 +345,13 @@ impl Cgmr {
         let goal = goal.map_or_else(|| self.ds.target.clone(), <[f64]>::to_vec);
         check_dim("C-GMR goal", self.dim(), goal.len())?;
         check_finite("C-GMR goal", &goal)?;
-        Ok(CgmrRunner { model: self, goal, omega: 0.0, t: 0.0, started: false })
+        Ok(CgmrRunner {
+            model: self,
+            goal,
+            omega: 0.0,
+            t: 0.0,
+            started: false,
+        })
     }
 }
 
@@ -331,7 +400,11 @@ impl DsPolicy for CgmrRunner<'_> {
         }
         // Eq. 3.14, integrated exactly over dt (c is held constant over the step).
         self.t += dt;
-        self.omega = if self.t >= self.model.t_max { 1.0 } else { c + (self.omega - c) * (-self.model.config.gamma * dt).exp() };
+        self.omega = if self.t >= self.model.t_max {
+            1.0
+        } else {
+            c + (self.omega - c) * (-self.model.config.gamma * dt).exp()
+        };
         Ok(())
     }
     fn goal(&self) -> &[f64] {
@@ -374,12 +447,27 @@ mod tests {
     #[test]
     fn cgmr_reaches_target_from_far_starts_and_follows_demos() {
         let demos = spiral_demos();
-        let m = Cgmr::fit(&demos, Components::Fixed(6), &EmConfig::default(), 1, &CgmrConfig::default()).expect("fit");
-        let cfg = RolloutConfig { dt: 0.01, max_steps: 20_000, tol: 0.01 };
+        let m = Cgmr::fit(
+            &demos,
+            Components::Fixed(6),
+            &EmConfig::default(),
+            1,
+            &CgmrConfig::default(),
+        )
+        .expect("fit");
+        let cfg = RolloutConfig {
+            dt: 0.01,
+            max_steps: 20_000,
+            tol: 0.01,
+        };
         for start in [[5.0, 5.0], [-4.0, 0.5], [0.3, -3.0], [20.0, -20.0]] {
             let mut r = m.runner(None).expect("runner");
             let tr = rollout(&mut r, &start, &cfg).expect("rollout");
-            assert!(tr.reached, "start {start:?} ended at {:?}", tr.position(tr.len() - 1));
+            assert!(
+                tr.reached,
+                "start {start:?} ended at {:?}",
+                tr.position(tr.len() - 1)
+            );
         }
         // From a demo start the reproduction stays close to the demonstration for a while.
         let mut r = m.runner(None).expect("runner");
@@ -387,13 +475,23 @@ mod tests {
         assert!(tr.reached);
         let p = tr.position(20);
         let q = demos[1].position(10);
-        assert!(((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt() < 0.2, "{p:?} vs {q:?}");
+        assert!(
+            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2)).sqrt() < 0.2,
+            "{p:?} vs {q:?}"
+        );
     }
 
     #[test]
     fn retraining_with_new_demo_recomputes_gains() {
         let demos = spiral_demos();
-        let mut m = Cgmr::fit(&demos[..2], Components::Fixed(4), &EmConfig::default(), 1, &CgmrConfig::default()).expect("fit");
+        let mut m = Cgmr::fit(
+            &demos[..2],
+            Components::Fixed(4),
+            &EmConfig::default(),
+            1,
+            &CgmrConfig::default(),
+        )
+        .expect("fit");
         let before = m.u.clone();
         m.retrain(&demos, &EmConfig::default(), 1).expect("retrain");
         assert_ne!(before, m.u);

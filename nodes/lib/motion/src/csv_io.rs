@@ -12,8 +12,18 @@ use crate::dhb::Poses;
 use crate::ds::Trajectory;
 use crate::error::{MotionError, Result};
 
-fn csv_err(file: &Path, row: usize, column: impl Into<String>, reason: impl Into<String>) -> MotionError {
-    MotionError::Csv { file: file.to_path_buf(), row, column: column.into(), reason: reason.into() }
+fn csv_err(
+    file: &Path,
+    row: usize,
+    column: impl Into<String>,
+    reason: impl Into<String>,
+) -> MotionError {
+    MotionError::Csv {
+        file: file.to_path_buf(),
+        row,
+        column: column.into(),
+        reason: reason.into(),
+    }
 }
 
 /// A parsed numeric table: header names and rows (all of the header's width).
@@ -28,14 +38,27 @@ pub struct Table {
 /// Reads a numeric CSV with a header; every cell must parse as a finite number and every row
 /// must have the header's width.
 pub fn read_table(path: &Path) -> Result<Table> {
-    let file = std::fs::File::open(path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })?;
+    let file = std::fs::File::open(path).map_err(|source| MotionError::Io {
+        file: path.to_path_buf(),
+        source,
+    })?;
     read_table_from(file, path)
 }
 
 /// As [`read_table`] from any reader; `path` is only used in error messages.
 pub fn read_table_from<R: std::io::Read>(reader: R, path: &Path) -> Result<Table> {
-    let mut rdr = csv::ReaderBuilder::new().has_headers(true).flexible(true).comment(Some(b'#')).trim(csv::Trim::All).from_reader(reader);
-    let header: Vec<String> = rdr.headers().map_err(|e| csv_err(path, 1, "-", e.to_string()))?.iter().map(str::to_string).collect();
+    let mut rdr = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .flexible(true)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(reader);
+    let header: Vec<String> = rdr
+        .headers()
+        .map_err(|e| csv_err(path, 1, "-", e.to_string()))?
+        .iter()
+        .map(str::to_string)
+        .collect();
     if header.is_empty() || header.iter().all(String::is_empty) {
         return Err(csv_err(path, 1, "-", "missing header"));
     }
@@ -47,13 +70,30 @@ pub fn read_table_from<R: std::io::Read>(reader: R, path: &Path) -> Result<Table
         })?;
         let row = rec.position().map_or(rows.len() + 2, |p| p.line() as usize);
         if rec.len() != header.len() {
-            return Err(csv_err(path, row, format!("{}", rec.len().min(header.len()) + 1), format!("row has {} fields, header has {}", rec.len(), header.len())));
+            return Err(csv_err(
+                path,
+                row,
+                format!("{}", rec.len().min(header.len()) + 1),
+                format!("row has {} fields, header has {}", rec.len(), header.len()),
+            ));
         }
         let mut vals = Vec::with_capacity(rec.len());
         for (c, cell) in rec.iter().enumerate() {
-            let v: f64 = cell.parse().map_err(|_| csv_err(path, row, header[c].clone(), format!("`{cell}` is not a number")))?;
+            let v: f64 = cell.parse().map_err(|_| {
+                csv_err(
+                    path,
+                    row,
+                    header[c].clone(),
+                    format!("`{cell}` is not a number"),
+                )
+            })?;
             if !v.is_finite() {
-                return Err(csv_err(path, row, header[c].clone(), format!("`{cell}` is not finite")));
+                return Err(csv_err(
+                    path,
+                    row,
+                    header[c].clone(),
+                    format!("`{cell}` is not finite"),
+                ));
             }
             vals.push(v);
         }
@@ -66,8 +106,22 @@ fn expect_columns(path: &Path, header: &[String], names: &[String], offset: usiz
     for (i, n) in names.iter().enumerate() {
         match header.get(offset + i) {
             Some(h) if h == n => {}
-            Some(h) => return Err(csv_err(path, 1, format!("{}", offset + i + 1), format!("expected column `{n}`, found `{h}`"))),
-            None => return Err(csv_err(path, 1, format!("{}", offset + i + 1), format!("missing column `{n}`"))),
+            Some(h) => {
+                return Err(csv_err(
+                    path,
+                    1,
+                    format!("{}", offset + i + 1),
+                    format!("expected column `{n}`, found `{h}`"),
+                ));
+            }
+            None => {
+                return Err(csv_err(
+                    path,
+                    1,
+                    format!("{}", offset + i + 1),
+                    format!("missing column `{n}`"),
+                ));
+            }
         }
     }
     Ok(())
@@ -92,11 +146,21 @@ pub fn read_demonstration(path: &Path) -> Result<Demonstration> {
         let vs: Vec<String> = (0..n).map(|i| format!("v{i}")).collect();
         expect_columns(path, h, &vs, 1 + n)?;
         if h.len() != 1 + 2 * n {
-            return Err(csv_err(path, 1, format!("{}", 2 + 2 * n), "unexpected extra column"));
+            return Err(csv_err(
+                path,
+                1,
+                format!("{}", 2 + 2 * n),
+                "unexpected extra column",
+            ));
         }
     }
     if table.rows.len() < 2 {
-        return Err(csv_err(path, table.rows.len() + 1, "t", format!("need at least 2 samples, got {}", table.rows.len())));
+        return Err(csv_err(
+            path,
+            table.rows.len() + 1,
+            "t",
+            format!("need at least 2 samples, got {}", table.rows.len()),
+        ));
     }
     for (i, w) in table.rows.windows(2).enumerate() {
         if w[1][0] <= w[0][0] {
@@ -104,8 +168,18 @@ pub fn read_demonstration(path: &Path) -> Result<Demonstration> {
         }
     }
     let t = table.rows.iter().map(|r| r[0]).collect();
-    let pos = table.rows.iter().flat_map(|r| r[1..1 + n].iter().copied()).collect();
-    let vel = has_v.then(|| table.rows.iter().flat_map(|r| r[1 + n..1 + 2 * n].iter().copied()).collect());
+    let pos = table
+        .rows
+        .iter()
+        .flat_map(|r| r[1..1 + n].iter().copied())
+        .collect();
+    let vel = has_v.then(|| {
+        table
+            .rows
+            .iter()
+            .flat_map(|r| r[1 + n..1 + 2 * n].iter().copied())
+            .collect()
+    });
     Demonstration::new(n, t, pos, vel)
 }
 
@@ -124,26 +198,47 @@ pub fn read_points_named(path: &Path, prefix: &str) -> Result<(usize, Vec<f64>)>
 }
 
 fn io_err(path: &Path, e: impl std::fmt::Display) -> MotionError {
-    MotionError::Io { file: path.to_path_buf(), source: std::io::Error::other(e.to_string()) }
+    MotionError::Io {
+        file: path.to_path_buf(),
+        source: std::io::Error::other(e.to_string()),
+    }
 }
 
 /// Writes rows with a header, atomically (temporary file + rename) so a crash leaves no half file.
-pub fn write_table(path: &Path, header: &[String], rows: impl Iterator<Item = Vec<f64>>, comments: &[String]) -> Result<()> {
+pub fn write_table(
+    path: &Path,
+    header: &[String],
+    rows: impl Iterator<Item = Vec<f64>>,
+    comments: &[String],
+) -> Result<()> {
     let tmp = path.with_extension("tmp-write");
     {
-        let mut f = std::fs::File::create(&tmp).map_err(|source| MotionError::Io { file: tmp.clone(), source })?;
+        let mut f = std::fs::File::create(&tmp).map_err(|source| MotionError::Io {
+            file: tmp.clone(),
+            source,
+        })?;
         use std::io::Write;
         for c in comments {
-            writeln!(f, "# {c}").map_err(|source| MotionError::Io { file: tmp.clone(), source })?;
+            writeln!(f, "# {c}").map_err(|source| MotionError::Io {
+                file: tmp.clone(),
+                source,
+            })?;
         }
         let mut w = csv::Writer::from_writer(f);
         w.write_record(header).map_err(|e| io_err(path, e))?;
         for r in rows {
-            w.write_record(r.iter().map(|v| format!("{v:.17e}"))).map_err(|e| io_err(path, e))?;
+            w.write_record(r.iter().map(|v| format!("{v:.17e}")))
+                .map_err(|e| io_err(path, e))?;
         }
-        w.flush().map_err(|source| MotionError::Io { file: tmp.clone(), source })?;
+        w.flush().map_err(|source| MotionError::Io {
+            file: tmp.clone(),
+            source,
+        })?;
     }
-    std::fs::rename(&tmp, path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })
+    std::fs::rename(&tmp, path).map_err(|source| MotionError::Io {
+        file: path.to_path_buf(),
+        source,
+    })
 }
 
 /// Writes a rollout as `t,x0..,v0..`.
@@ -175,13 +270,19 @@ pub fn write_velocities(path: &Path, n: usize, v: &[f64]) -> Result<()> {
 /// an error).
 pub fn read_poses(path: &Path) -> Result<(Vec<f64>, Poses)> {
     let table = read_table(path)?;
-    let names: Vec<String> = ["t", "px", "py", "pz", "qw", "qx", "qy", "qz"].iter().map(|s| s.to_string()).collect();
+    let names: Vec<String> = ["t", "px", "py", "pz", "qw", "qx", "qy", "qz"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
     expect_columns(path, &table.header, &names, 0)?;
     if table.header.len() != names.len() {
         return Err(csv_err(path, 1, "9", "unexpected extra column"));
     }
     let mut t = Vec::new();
-    let mut poses = Poses { p: Vec::new(), r: Vec::new() };
+    let mut poses = Poses {
+        p: Vec::new(),
+        r: Vec::new(),
+    };
     for (i, r) in table.rows.iter().enumerate() {
         let q = Quaternion::new(r[4], r[5], r[6], r[7]);
         if q.norm() < 1e-9 {
@@ -189,20 +290,34 @@ pub fn read_poses(path: &Path) -> Result<(Vec<f64>, Poses)> {
         }
         t.push(r[0]);
         poses.p.push(Vector3::new(r[1], r[2], r[3]));
-        poses.r.push(UnitQuaternion::from_quaternion(q).to_rotation_matrix());
+        poses
+            .r
+            .push(UnitQuaternion::from_quaternion(q).to_rotation_matrix());
     }
     Ok((t, poses))
 }
 
 /// Writes a pose trajectory in the format of [`read_poses`].
 pub fn write_poses(path: &Path, t: &[f64], poses: &Poses) -> Result<()> {
-    let header: Vec<String> = ["t", "px", "py", "pz", "qw", "qx", "qy", "qz"].iter().map(|s| s.to_string()).collect();
+    let header: Vec<String> = ["t", "px", "py", "pz", "qw", "qx", "qy", "qz"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
     write_table(
         path,
         &header,
         poses.p.iter().zip(&poses.r).enumerate().map(|(i, (p, r))| {
             let q = UnitQuaternion::from_rotation_matrix(r);
-            vec![t.get(i).copied().unwrap_or(i as f64), p.x, p.y, p.z, q.w, q.i, q.j, q.k]
+            vec![
+                t.get(i).copied().unwrap_or(i as f64),
+                p.x,
+                p.y,
+                p.z,
+                q.w,
+                q.i,
+                q.j,
+                q.k,
+            ]
         }),
         &[],
     )
@@ -214,10 +329,15 @@ pub fn rotation_from_wxyz(q: [f64; 4]) -> Rotation3<f64> {
 }
 
 /// Column names of a DHB invariant file.
-pub const DHB_HEADER: [&str; 7] = ["t", "m_l", "theta1_l", "theta2_l", "m_a", "theta1_a", "theta2_a"];
+pub const DHB_HEADER: [&str; 7] = [
+    "t", "m_l", "theta1_l", "theta2_l", "m_a", "theta1_a", "theta2_a",
+];
 
 fn fmt_list(v: &[f64]) -> String {
-    v.iter().map(|x| format!("{x:.17e}")).collect::<Vec<_>>().join(",")
+    v.iter()
+        .map(|x| format!("{x:.17e}"))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// Writes position-based DHB invariants with the sample times of the rows (`t_end` is the time
@@ -252,21 +372,40 @@ pub fn write_dhb(path: &Path, t: &[f64], dhb: &crate::dhb::Dhb) -> Result<()> {
 pub fn read_dhb(path: &Path) -> Result<(Vec<f64>, f64, crate::dhb::Dhb)> {
     use crate::dhb::{Dhb, DhbKind, VectorInvariants};
     use nalgebra::Matrix3;
-    let text = std::fs::read_to_string(path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| MotionError::Io {
+        file: path.to_path_buf(),
+        source,
+    })?;
     let (line_no, line) = text
         .lines()
         .enumerate()
         .find(|(_, l)| l.starts_with("# dhb "))
-        .ok_or_else(|| csv_err(path, 1, "-", "missing `# dhb p0=… r0=… linear_frame=… angular_frame=…` line"))?;
+        .ok_or_else(|| {
+            csv_err(
+                path,
+                1,
+                "-",
+                "missing `# dhb p0=… r0=… linear_frame=… angular_frame=…` line",
+            )
+        })?;
     let row = line_no + 1;
     let field = |name: &str, n: usize| -> Result<Vec<f64>> {
         let v = line
             .split_whitespace()
             .find_map(|w| w.strip_prefix(&format!("{name}=")))
             .ok_or_else(|| csv_err(path, row, name, "missing"))?;
-        let vals: Vec<f64> = v.split(',').map(str::parse).collect::<std::result::Result<_, _>>().map_err(|_| csv_err(path, row, name, "not a list of numbers"))?;
+        let vals: Vec<f64> = v
+            .split(',')
+            .map(str::parse)
+            .collect::<std::result::Result<_, _>>()
+            .map_err(|_| csv_err(path, row, name, "not a list of numbers"))?;
         if vals.len() != n {
-            return Err(csv_err(path, row, name, format!("expected {n} values, got {}", vals.len())));
+            return Err(csv_err(
+                path,
+                row,
+                name,
+                format!("expected {n} values, got {}", vals.len()),
+            ));
         }
         Ok(vals)
     };
@@ -283,8 +422,14 @@ pub fn read_dhb(path: &Path) -> Result<(Vec<f64>, f64, crate::dhb::Dhb)> {
     let frame = |v: &[f64]| Matrix3::from_column_slice(v);
     let dhb = Dhb {
         kind: DhbKind::Position,
-        linear: VectorInvariants { rows: lin, frame0: frame(&lf) },
-        angular: VectorInvariants { rows: ang, frame0: frame(&af) },
+        linear: VectorInvariants {
+            rows: lin,
+            frame0: frame(&lf),
+        },
+        angular: VectorInvariants {
+            rows: ang,
+            frame0: frame(&af),
+        },
         p0: Vector3::new(p0[0], p0[1], p0[2]),
         r0: rotation_from_wxyz([r0[0], r0[1], r0[2], r0[3]]),
     };
@@ -312,7 +457,8 @@ mod tests {
 
     #[test]
     fn reads_demos_with_and_without_velocities() {
-        let d = read_demonstration(&write("a.csv", "t,x0,x1\n0,0,0\n1,1,2\n2,2,4\n")).expect("demo");
+        let d =
+            read_demonstration(&write("a.csv", "t,x0,x1\n0,0,0\n1,1,2\n2,2,4\n")).expect("demo");
         assert_eq!(d.dim, 2);
         assert_eq!(d.velocity(1), &[1.0, 2.0]);
         let d = read_demonstration(&write("b.csv", "t,x0,v0\n0,0,5\n1,1,6\n")).expect("demo");
@@ -321,13 +467,25 @@ mod tests {
 
     #[test]
     fn bad_files_name_file_row_and_column() {
-        let e = err_text(read_demonstration(&write("nan.csv", "t,x0,x1\n0,0,0\n1,NaN,2\n")));
-        assert!(e.contains("nan.csv") && e.contains("row 3") && e.contains("column x0"), "{e}");
-        let e = err_text(read_demonstration(&write("ragged.csv", "t,x0,x1\n0,0,0\n1,1\n")));
+        let e = err_text(read_demonstration(&write(
+            "nan.csv",
+            "t,x0,x1\n0,0,0\n1,NaN,2\n",
+        )));
+        assert!(
+            e.contains("nan.csv") && e.contains("row 3") && e.contains("column x0"),
+            "{e}"
+        );
+        let e = err_text(read_demonstration(&write(
+            "ragged.csv",
+            "t,x0,x1\n0,0,0\n1,1\n",
+        )));
         assert!(e.contains("ragged.csv") && e.contains("row 3"), "{e}");
         let e = err_text(read_demonstration(&write("one.csv", "t,x0\n0,0\n")));
         assert!(e.contains("one.csv") && e.contains("at least 2"), "{e}");
-        let e = err_text(read_demonstration(&write("hdr.csv", "t,x0,y1\n0,0,0\n1,1,1\n")));
+        let e = err_text(read_demonstration(&write(
+            "hdr.csv",
+            "t,x0,y1\n0,0,0\n1,1,1\n",
+        )));
         assert!(e.contains("hdr.csv") && e.contains("row 1"), "{e}");
         let e = err_text(read_demonstration(&write("time.csv", "t,x0\n0,0\n0,1\n")));
         assert!(e.contains("row 3") && e.contains("column t"), "{e}");
@@ -339,8 +497,15 @@ mod tests {
     fn dhb_file_round_trip() {
         use crate::dhb::{Dhb, Poses};
         let n = 20;
-        let p: Vec<_> = (0..n).map(|i| { let t = i as f64 * 0.1; Vector3::new(t.cos(), t.sin(), 0.1 * t) }).collect();
-        let r: Vec<_> = (0..n).map(|i| Rotation3::from_euler_angles(0.1 * i as f64, 0.02 * (i * i) as f64, 0.0)).collect();
+        let p: Vec<_> = (0..n)
+            .map(|i| {
+                let t = i as f64 * 0.1;
+                Vector3::new(t.cos(), t.sin(), 0.1 * t)
+            })
+            .collect();
+        let r: Vec<_> = (0..n)
+            .map(|i| Rotation3::from_euler_angles(0.1 * i as f64, 0.02 * (i * i) as f64, 0.0))
+            .collect();
         let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.1).collect();
         let dhb = Dhb::from_poses(&Poses { p: p.clone(), r }).expect("dhb");
         let path = write("inv.csv", "");
@@ -359,7 +524,13 @@ mod tests {
 
     #[test]
     fn trajectory_round_trip() {
-        let tr = Trajectory { dim: 1, t: vec![0.0, 0.1], pos: vec![1.0, 2.0], vel: vec![0.5, 0.25], reached: false };
+        let tr = Trajectory {
+            dim: 1,
+            t: vec![0.0, 0.1],
+            pos: vec![1.0, 2.0],
+            vel: vec![0.5, 0.25],
+            reached: false,
+        };
         let p = write("out.csv", "");
         write_trajectory(&p, &tr).expect("write");
         let d = read_demonstration(&p).expect("read");

@@ -28,13 +28,20 @@ impl Demonstration {
         }
         let n = t.len();
         if n < 2 {
-            return Err(MotionError::TooFewSamples { what: "demonstration".into(), needed: 2, got: n });
+            return Err(MotionError::TooFewSamples {
+                what: "demonstration".into(),
+                needed: 2,
+                got: n,
+            });
         }
         check_dim("demonstration positions", n * dim, pos.len())?;
         check_finite("demonstration times", &t)?;
         check_finite("demonstration positions", &pos)?;
         if let Some(i) = t.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(invalid("t", format!("times must increase strictly (sample {})", i + 1)));
+            return Err(invalid(
+                "t",
+                format!("times must increase strictly (sample {})", i + 1),
+            ));
         }
         let vel = match vel {
             Some(v) => {
@@ -76,8 +83,17 @@ impl Demonstration {
         if idx.last() != Some(&(self.len() - 1)) {
             idx.push(self.len() - 1);
         }
-        let pick = |v: &[f64]| idx.iter().flat_map(|&i| v[i * self.dim..(i + 1) * self.dim].iter().copied()).collect();
-        Self { dim: self.dim, t: idx.iter().map(|&i| self.t[i]).collect(), pos: pick(&self.pos), vel: pick(&self.vel) }
+        let pick = |v: &[f64]| {
+            idx.iter()
+                .flat_map(|&i| v[i * self.dim..(i + 1) * self.dim].iter().copied())
+                .collect()
+        };
+        Self {
+            dim: self.dim,
+            t: idx.iter().map(|&i| self.t[i]).collect(),
+            pos: pick(&self.pos),
+            vel: pick(&self.vel),
+        }
     }
 }
 
@@ -86,7 +102,13 @@ pub fn finite_differences(dim: usize, t: &[f64], pos: &[f64]) -> Vec<f64> {
     let n = t.len();
     let mut vel = vec![0.0; n * dim];
     for i in 0..n {
-        let (a, b) = if i == 0 { (0, 1) } else if i == n - 1 { (n - 2, n - 1) } else { (i - 1, i + 1) };
+        let (a, b) = if i == 0 {
+            (0, 1)
+        } else if i == n - 1 {
+            (n - 2, n - 1)
+        } else {
+            (i - 1, i + 1)
+        };
         let dt = t[b] - t[a];
         for j in 0..dim {
             vel[i * dim + j] = (pos[b * dim + j] - pos[a * dim + j]) / dt;
@@ -97,7 +119,11 @@ pub fn finite_differences(dim: usize, t: &[f64], pos: &[f64]) -> Vec<f64> {
 
 /// Checks that all demonstrations share one dimension and returns it.
 pub fn common_dim(demos: &[Demonstration]) -> Result<usize> {
-    let first = demos.first().ok_or(MotionError::TooFewSamples { what: "demonstrations".into(), needed: 1, got: 0 })?;
+    let first = demos.first().ok_or(MotionError::TooFewSamples {
+        what: "demonstrations".into(),
+        needed: 1,
+        got: 0,
+    })?;
     for (i, d) in demos.iter().enumerate() {
         check_dim(&format!("demonstration {i} dimension"), first.dim, d.dim)?;
     }

@@ -35,32 +35,58 @@ pub struct VectorInvariants {
 }
 
 fn any_perpendicular(x: &Vector3<f64>) -> Vector3<f64> {
-    let a = if x.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let a = if x.x.abs() < 0.9 {
+        Vector3::x()
+    } else {
+        Vector3::y()
+    };
     x.cross(&a).normalize()
 }
 
 /// Algorithm 2's `computeInvariants` for a sequence `u` (at least 3 vectors). `init` is a known
 /// initial frame used where the data do not define one (pure rotation/translation, straight line).
-pub fn compute_invariants(u: &[Vector3<f64>], init: Option<&Matrix3<f64>>) -> Result<VectorInvariants> {
+pub fn compute_invariants(
+    u: &[Vector3<f64>],
+    init: Option<&Matrix3<f64>>,
+) -> Result<VectorInvariants> {
     let n = u.len();
     if n < 3 {
-        return Err(MotionError::TooFewSamples { what: "DHB vector sequence".into(), needed: 3, got: n });
+        return Err(MotionError::TooFewSamples {
+            what: "DHB vector sequence".into(),
+            needed: 3,
+            got: n,
+        });
     }
     if let Some(i) = u.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
-        return Err(MotionError::NotFinite { what: "DHB input vector".into(), index: i });
+        return Err(MotionError::NotFinite {
+            what: "DHB input vector".into(),
+            index: i,
+        });
     }
-    let init_x = init.map(|f| f.column(0).into_owned()).unwrap_or_else(Vector3::x);
+    let init_x = init
+        .map(|f| f.column(0).into_owned())
+        .unwrap_or_else(Vector3::x);
     // x axes
     let mut xs: Vec<Vector3<f64>> = Vec::with_capacity(n);
     for (t, v) in u.iter().enumerate() {
         let nv = v.norm();
-        let x = if nv > EPS { v / nv } else if t == 0 { init_x } else { xs[t - 1] };
+        let x = if nv > EPS {
+            v / nv
+        } else if t == 0 {
+            init_x
+        } else {
+            xs[t - 1]
+        };
         xs.push(x);
     }
     // y axes, t = 0..n-1 (the last one repeats the previous: only used for θ² of row n−3).
     let mut ys: Vec<Vector3<f64>> = Vec::with_capacity(n);
     for t in 0..n {
-        let c = if t + 1 < n { xs[t].cross(&xs[t + 1]) } else { Vector3::zeros() };
+        let c = if t + 1 < n {
+            xs[t].cross(&xs[t + 1])
+        } else {
+            Vector3::zeros()
+        };
         let nc = c.norm();
         let y = if nc > EPS {
             let y = c / nc;
@@ -69,9 +95,15 @@ pub fn compute_invariants(u: &[Vector3<f64>], init: Option<&Matrix3<f64>>) -> Re
                 _ => y,
             }
         } else if t == 0 {
-            let cand = init.map(|f| f.column(1).into_owned()).unwrap_or_else(|| any_perpendicular(&xs[0]));
+            let cand = init
+                .map(|f| f.column(1).into_owned())
+                .unwrap_or_else(|| any_perpendicular(&xs[0]));
             let y = cand - xs[0] * xs[0].dot(&cand);
-            if y.norm() > 1e-9 { y.normalize() } else { any_perpendicular(&xs[0]) }
+            if y.norm() > 1e-9 {
+                y.normalize()
+            } else {
+                any_perpendicular(&xs[0])
+            }
         } else {
             ys[t - 1]
         };
@@ -81,8 +113,14 @@ pub fn compute_invariants(u: &[Vector3<f64>], init: Option<&Matrix3<f64>>) -> Re
     let rows = (0..n - 2)
         .map(|t| {
             let m = u[t].dot(&xs[t]);
-            let th1 = xs[t].cross(&xs[t + 1]).dot(&ys[t]).atan2(xs[t].dot(&xs[t + 1]));
-            let th2 = ys[t].cross(&ys[t + 1]).dot(&xs[t + 1]).atan2(ys[t].dot(&ys[t + 1]));
+            let th1 = xs[t]
+                .cross(&xs[t + 1])
+                .dot(&ys[t])
+                .atan2(xs[t].dot(&xs[t + 1]));
+            let th2 = ys[t]
+                .cross(&ys[t + 1])
+                .dot(&xs[t + 1])
+                .atan2(ys[t].dot(&ys[t + 1]));
             [m, th1, th2]
         })
         .collect();
@@ -101,7 +139,11 @@ fn rx(a: f64) -> Matrix3<f64> {
 /// Eq. 3.48–3.56: the vectors `u_t = F_t [s·m_t, 0, 0]ᵀ` with `F_{t+1} = F_t R_y(θ¹_t) R_x(θ²_t)`,
 /// starting from `frame0` (roto-translated instances use a rotated `frame0`; `scale` is `s` of
 /// the scaled reconstruction).
-pub fn reconstruct_vectors(rows: &[Triplet], frame0: &Matrix3<f64>, scale: f64) -> Vec<Vector3<f64>> {
+pub fn reconstruct_vectors(
+    rows: &[Triplet],
+    frame0: &Matrix3<f64>,
+    scale: f64,
+) -> Vec<Vector3<f64>> {
     let mut f = *frame0;
     rows.iter()
         .map(|[m, t1, t2]| {
@@ -148,12 +190,24 @@ pub struct Poses {
 impl Dhb {
     /// Position-based invariants of a pose trajectory (at least 4 poses).
     pub fn from_poses(poses: &Poses) -> Result<Self> {
-        crate::error::check_dim("DHB orientations vs positions", poses.p.len(), poses.r.len())?;
+        crate::error::check_dim(
+            "DHB orientations vs positions",
+            poses.p.len(),
+            poses.r.len(),
+        )?;
         if poses.p.len() < 4 {
-            return Err(MotionError::TooFewSamples { what: "DHB pose trajectory".into(), needed: 4, got: poses.p.len() });
+            return Err(MotionError::TooFewSamples {
+                what: "DHB pose trajectory".into(),
+                needed: 4,
+                got: poses.p.len(),
+            });
         }
         let dp: Vec<Vector3<f64>> = poses.p.windows(2).map(|w| w[1] - w[0]).collect();
-        let dr: Vec<Vector3<f64>> = poses.r.windows(2).map(|w| (w[1] * w[0].inverse()).scaled_axis()).collect();
+        let dr: Vec<Vector3<f64>> = poses
+            .r
+            .windows(2)
+            .map(|w| (w[1] * w[0].inverse()).scaled_axis())
+            .collect();
         Ok(Self {
             kind: DhbKind::Position,
             linear: compute_invariants(&dp, None)?,
@@ -177,18 +231,31 @@ impl Dhb {
 
     /// Rows of the six invariants `(m_l, θ¹_l, θ²_l, m_a, θ¹_a, θ²_a)`.
     pub fn rows(&self) -> Vec<[f64; 6]> {
-        self.linear.rows.iter().zip(&self.angular.rows).map(|(l, a)| [l[0], l[1], l[2], a[0], a[1], a[2]]).collect()
+        self.linear
+            .rows
+            .iter()
+            .zip(&self.angular.rows)
+            .map(|(l, a)| [l[0], l[1], l[2], a[0], a[1], a[2]])
+            .collect()
     }
 
     /// Reconstructed twists `(v_t, ω_t)` (velocity-based) or differences `(Δp_t, Δr_t)`.
     pub fn reconstruct_vectors(&self) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
-        (reconstruct_vectors(&self.linear.rows, &self.linear.frame0, 1.0), reconstruct_vectors(&self.angular.rows, &self.angular.frame0, 1.0))
+        (
+            reconstruct_vectors(&self.linear.rows, &self.linear.frame0, 1.0),
+            reconstruct_vectors(&self.angular.rows, &self.angular.frame0, 1.0),
+        )
     }
 
     /// Reconstructed poses (position-based), `N − 1` of them for `N` input poses' `N − 2` rows + start.
     /// `scale` multiplies `m_l` (eq. after 3.56), `(rotation, translation)` roto-translates the
     /// initial pose and frames.
-    pub fn reconstruct_poses(&self, scale: f64, rotation: &Rotation3<f64>, translation: &Vector3<f64>) -> Poses {
+    pub fn reconstruct_poses(
+        &self,
+        scale: f64,
+        rotation: &Rotation3<f64>,
+        translation: &Vector3<f64>,
+    ) -> Poses {
         let ra = rotation.matrix();
         let dp = reconstruct_vectors(&self.linear.rows, &(ra * self.linear.frame0), scale);
         let dr = reconstruct_vectors(&self.angular.rows, &(ra * self.angular.frame0), 1.0);
@@ -254,13 +321,21 @@ mod tests {
         (0..n)
             .map(|i| {
                 let t = i as f64 * dt;
-                (Vector3::new(0.01 * t.exp(), 5.0 + 1.5 * t.sin(), t.cos()), Vector3::new(0.5 * t.sin(), t.cos(), 0.1 * t))
+                (
+                    Vector3::new(0.01 * t.exp(), 5.0 + 1.5 * t.sin(), t.cos()),
+                    Vector3::new(0.5 * t.sin(), t.cos(), 0.1 * t),
+                )
             })
             .unzip()
     }
 
     fn rmse(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
-        (a.iter().zip(b).map(|(x, y)| (x - y).norm_squared()).sum::<f64>() / a.len() as f64).sqrt()
+        (a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).norm_squared())
+            .sum::<f64>()
+            / a.len() as f64)
+            .sqrt()
     }
 
     #[test]
@@ -278,9 +353,15 @@ mod tests {
     #[test]
     fn singular_cases_of_table_3_1() {
         // Pure translation along a straight line: angular part all zero, linear angles zero.
-        let p: Vec<_> = (0..10).map(|i| Vector3::new(i as f64 * 0.1, 0.0, 0.0)).collect();
+        let p: Vec<_> = (0..10)
+            .map(|i| Vector3::new(i as f64 * 0.1, 0.0, 0.0))
+            .collect();
         let r = vec![Rotation3::identity(); 10];
-        let d = Dhb::from_poses(&Poses { p: p.clone(), r: r.clone() }).expect("dhb");
+        let d = Dhb::from_poses(&Poses {
+            p: p.clone(),
+            r: r.clone(),
+        })
+        .expect("dhb");
         for row in d.rows() {
             assert!((row[0] - 0.1).abs() < 1e-12);
             assert_eq!(&row[1..], &[0.0; 5]);
@@ -290,21 +371,36 @@ mod tests {
             assert!((a - b).norm() < 1e-12);
         }
         // Planar motion: θ²_l = 0, rotation about parallel axes → θ¹_a = θ²_a = 0.
-        let p: Vec<_> = (0..30).map(|i| { let t = i as f64 * 0.1; Vector3::new(t.cos(), (2.0 * t).sin(), 0.0) }).collect();
-        let r: Vec<_> = (0..30).map(|i| Rotation3::from_axis_angle(&Vector3::z_axis(), 0.1 * (i * i) as f64 / 30.0)).collect();
+        let p: Vec<_> = (0..30)
+            .map(|i| {
+                let t = i as f64 * 0.1;
+                Vector3::new(t.cos(), (2.0 * t).sin(), 0.0)
+            })
+            .collect();
+        let r: Vec<_> = (0..30)
+            .map(|i| Rotation3::from_axis_angle(&Vector3::z_axis(), 0.1 * (i * i) as f64 / 30.0))
+            .collect();
         let d = Dhb::from_poses(&Poses { p, r }).expect("dhb");
         for row in d.rows() {
-            assert!(row[2].abs() < 1e-9 && row[4].abs() < 1e-9 && row[5].abs() < 1e-9, "{row:?}");
+            assert!(
+                row[2].abs() < 1e-9 && row[4].abs() < 1e-9 && row[5].abs() < 1e-9,
+                "{row:?}"
+            );
         }
         // Pure rotation: linear part zero.
         let p = vec![Vector3::new(1.0, 2.0, 3.0); 10];
-        let r: Vec<_> = (0..10).map(|i| Rotation3::from_euler_angles(0.1 * i as f64, 0.05 * (i * i) as f64, 0.0)).collect();
+        let r: Vec<_> = (0..10)
+            .map(|i| Rotation3::from_euler_angles(0.1 * i as f64, 0.05 * (i * i) as f64, 0.0))
+            .collect();
         let d = Dhb::from_poses(&Poses { p, r: r.clone() }).expect("dhb");
         for row in d.rows() {
             assert_eq!(&row[..3], &[0.0; 3]);
         }
         let back = d.reconstruct_poses(1.0, &Rotation3::identity(), &Vector3::zeros());
-        let dr: Vec<_> = r.windows(2).map(|w| (w[1] * w[0].inverse()).scaled_axis()).collect();
+        let dr: Vec<_> = r
+            .windows(2)
+            .map(|w| (w[1] * w[0].inverse()).scaled_axis())
+            .collect();
         let (_, rdr) = d.reconstruct_vectors();
         for (a, b) in rdr.iter().zip(&dr) {
             assert!((a - b).norm() < 1e-9, "{a:?} {b:?}");
@@ -322,9 +418,15 @@ mod tests {
         let slow_w: Vec<_> = w.iter().map(|x| x * 0.5).collect();
         let t_f = 4.0;
         let a = time_normalised(&Dhb::from_twists(&v, &w).expect("dhb").rows(), t_f);
-        let b = time_normalised(&Dhb::from_twists(&slow_v, &slow_w).expect("dhb").rows(), 2.0 * t_f);
+        let b = time_normalised(
+            &Dhb::from_twists(&slow_v, &slow_w).expect("dhb").rows(),
+            2.0 * t_f,
+        );
         for (x, y) in a.iter().zip(&b) {
-            assert!((x[0] - y[0]).abs() < 1e-9 && (x[3] - y[3]).abs() < 1e-9, "{x:?} {y:?}");
+            assert!(
+                (x[0] - y[0]).abs() < 1e-9 && (x[3] - y[3]).abs() < 1e-9,
+                "{x:?} {y:?}"
+            );
         }
         // Scale normalisation makes the magnitudes sum to one.
         let s = scale_normalised(&a);
@@ -342,7 +444,10 @@ mod tests {
         assert_eq!(rev.len(), rows.len() - 2);
         for (r, (a, b)) in rev.iter().zip(rows_r.iter().skip(2)).enumerate() {
             for k in 0..6 {
-                assert!((a[k].abs() - b[k].abs()).abs() < 1e-9, "row {r} col {k}: {a:?} vs {b:?}");
+                assert!(
+                    (a[k].abs() - b[k].abs()).abs() < 1e-9,
+                    "row {r} col {k}: {a:?} vs {b:?}"
+                );
             }
         }
     }

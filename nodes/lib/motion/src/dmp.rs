@@ -38,7 +38,13 @@ pub struct DmpConfig {
 
 impl Default for DmpConfig {
     fn default() -> Self {
-        Self { n_basis: 30, stiffness: 70.0, damping: None, gamma_times_duration: 5.0, ridge: 1e-8 }
+        Self {
+            n_basis: 30,
+            stiffness: 70.0,
+            damping: None,
+            gamma_times_duration: 5.0,
+            ridge: 1e-8,
+        }
     }
 }
 
@@ -48,7 +54,10 @@ impl DmpConfig {
         if self.n_basis == 0 {
             return Err(invalid("n_basis", "must be at least 1"));
         }
-        for (name, v) in [("stiffness", self.stiffness), ("gamma_times_duration", self.gamma_times_duration)] {
+        for (name, v) in [
+            ("stiffness", self.stiffness),
+            ("gamma_times_duration", self.gamma_times_duration),
+        ] {
             if !(v > 0.0) || !v.is_finite() {
                 return Err(invalid(name, format!("must be finite and > 0, got {v}")));
             }
@@ -56,7 +65,10 @@ impl DmpConfig {
         if let Some(d) = self.damping
             && (!(d >= 0.0) || !d.is_finite())
         {
-            return Err(invalid("damping", format!("must be finite and >= 0, got {d}")));
+            return Err(invalid(
+                "damping",
+                format!("must be finite and >= 0, got {d}"),
+            ));
         }
         if !(self.ridge >= 0.0) || !self.ridge.is_finite() {
             return Err(invalid("ridge", "must be finite and >= 0"));
@@ -80,17 +92,31 @@ impl Basis {
     fn new(n: usize, gamma: f64, duration: f64) -> Self {
         let centers: Vec<f64> = (0..n)
             .map(|k| {
-                let t = if n == 1 { 0.0 } else { duration * k as f64 / (n - 1) as f64 };
+                let t = if n == 1 {
+                    0.0
+                } else {
+                    duration * k as f64 / (n - 1) as f64
+                };
                 (-gamma * t).exp()
             })
             .collect();
         let widths = (0..n)
             .map(|k| {
-                let d = if n == 1 { 0.5 } else if k + 1 < n { centers[k + 1] - centers[k] } else { centers[k] - centers[k - 1] };
+                let d = if n == 1 {
+                    0.5
+                } else if k + 1 < n {
+                    centers[k + 1] - centers[k]
+                } else {
+                    centers[k] - centers[k - 1]
+                };
                 1.0 / (d * d).max(1e-12)
             })
             .collect();
-        Self { centers, widths, gamma }
+        Self {
+            centers,
+            widths,
+            gamma,
+        }
     }
 
     /// Normalised, phase-weighted activations `φ_k(s) s / Σ φ_j(s)` into `out`.
@@ -114,7 +140,12 @@ fn fit_weights(phi: &DMatrix<f64>, y: &DMatrix<f64>, ridge: f64) -> Result<DMatr
         a[(i, i)] += ridge * scale;
     }
     let b = phi.transpose() * y;
-    let chol = a.cholesky().ok_or_else(|| invalid("n_basis", "basis regression is singular (too many basis functions for the samples?)"))?;
+    let chol = a.cholesky().ok_or_else(|| {
+        invalid(
+            "n_basis",
+            "basis regression is singular (too many basis functions for the samples?)",
+        )
+    })?;
     Ok(chol.solve(&b))
 }
 
@@ -146,7 +177,11 @@ impl Dmp {
         let n = demo.dim;
         let len = demo.len();
         if len < 3 {
-            return Err(MotionError::TooFewSamples { what: "DMP demonstration".into(), needed: 3, got: len });
+            return Err(MotionError::TooFewSamples {
+                what: "DMP demonstration".into(),
+                needed: 3,
+                got: len,
+            });
         }
         let duration = demo.duration();
         let gamma = cfg.gamma_times_duration / duration;
@@ -173,8 +208,20 @@ impl Dmp {
             }
         }
         let w = fit_weights(&phi, &y, cfg.ridge)?;
-        let weights = (0..cfg.n_basis).flat_map(|b| (0..n).map(move |j| (b, j))).map(|(b, j)| w[(b, j)]).collect();
-        Ok(Self { dim: n, basis, weights, stiffness: k, damping: d, start: x0, goal: g, duration })
+        let weights = (0..cfg.n_basis)
+            .flat_map(|b| (0..n).map(move |j| (b, j)))
+            .map(|(b, j)| w[(b, j)])
+            .collect();
+        Ok(Self {
+            dim: n,
+            basis,
+            weights,
+            stiffness: k,
+            damping: d,
+            start: x0,
+            goal: g,
+            duration,
+        })
     }
 
     /// Forcing term `f(s)` into `out` (allocation-free).
@@ -196,7 +243,15 @@ impl Dmp {
     /// Integrates the DMP (semi-implicit Euler, step `dt` s) from `start` to `goal` (the
     /// demonstrated ones when `None`) with temporal scaling `tau` (> 1 slower). Runs for
     /// `tau · duration`, then on until `‖x − g‖ ≤ tol` or `max_steps`.
-    pub fn rollout(&self, start: Option<&[f64]>, goal: Option<&[f64]>, tau: f64, dt: f64, max_steps: usize, tol: f64) -> Result<Trajectory> {
+    pub fn rollout(
+        &self,
+        start: Option<&[f64]>,
+        goal: Option<&[f64]>,
+        tau: f64,
+        dt: f64,
+        max_steps: usize,
+        tol: f64,
+    ) -> Result<Trajectory> {
         let x0 = start.unwrap_or(&self.start).to_vec();
         let g = goal.unwrap_or(&self.goal).to_vec();
         check_dim("DMP start", self.dim, x0.len())?;
@@ -213,12 +268,20 @@ impl Dmp {
         let mut f = vec![0.0; n];
         let mut s = 1.0;
         let decay = (-self.basis.gamma * dt / tau).exp();
-        let mut tr = Trajectory { dim: n, ..Default::default() };
+        let mut tr = Trajectory {
+            dim: n,
+            ..Default::default()
+        };
         for i in 0..=max_steps {
             tr.t.push(i as f64 * dt);
             tr.pos.extend_from_slice(&x);
             tr.vel.extend(v.iter().map(|v| v / tau));
-            let err: f64 = x.iter().zip(&g).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+            let err: f64 = x
+                .iter()
+                .zip(&g)
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>()
+                .sqrt();
             if i >= nominal && err <= tol {
                 tr.reached = true;
                 break;
@@ -228,7 +291,10 @@ impl Dmp {
             }
             self.forcing(s, &mut f);
             for j in 0..n {
-                let a = self.stiffness * (g[j] - x[j]) - self.damping * v[j] - self.stiffness * (g[j] - x0[j]) * s + self.stiffness * f[j];
+                let a = self.stiffness * (g[j] - x[j])
+                    - self.damping * v[j]
+                    - self.stiffness * (g[j] - x0[j]) * s
+                    + self.stiffness * f[j];
                 v[j] += dt / tau * a;
                 x[j] += dt / tau * v[j];
             }
@@ -270,7 +336,11 @@ impl OrientationDmp {
         let len = t.len();
         check_dim("orientation samples vs times", len, q.len())?;
         if len < 3 {
-            return Err(MotionError::TooFewSamples { what: "orientation DMP demonstration".into(), needed: 3, got: len });
+            return Err(MotionError::TooFewSamples {
+                what: "orientation DMP demonstration".into(),
+                needed: 3,
+                got: len,
+            });
         }
         check_finite("orientation DMP times", t)?;
         let duration = t[len - 1] - t[0];
@@ -305,12 +375,29 @@ impl OrientationDmp {
             }
         }
         let w = fit_weights(&phi, &y, cfg.ridge)?;
-        let weights = (0..cfg.n_basis).flat_map(|b| (0..3).map(move |j| (b, j))).map(|(b, j)| w[(b, j)]).collect();
-        Ok(Self { basis, weights, stiffness: k, damping: d, start: q0, goal: g, duration })
+        let weights = (0..cfg.n_basis)
+            .flat_map(|b| (0..3).map(move |j| (b, j)))
+            .map(|(b, j)| w[(b, j)])
+            .collect();
+        Ok(Self {
+            basis,
+            weights,
+            stiffness: k,
+            damping: d,
+            start: q0,
+            goal: g,
+            duration,
+        })
     }
 
     /// Integrates for `tau · duration` seconds with step `dt`; returns the orientations.
-    pub fn rollout(&self, start: Option<UnitQuaternion<f64>>, goal: Option<UnitQuaternion<f64>>, tau: f64, dt: f64) -> Result<Vec<UnitQuaternion<f64>>> {
+    pub fn rollout(
+        &self,
+        start: Option<UnitQuaternion<f64>>,
+        goal: Option<UnitQuaternion<f64>>,
+        tau: f64,
+        dt: f64,
+    ) -> Result<Vec<UnitQuaternion<f64>>> {
         if !(tau > 0.0) || !(dt > 0.0) || !tau.is_finite() || !dt.is_finite() {
             return Err(invalid("tau/dt", "must be finite and > 0"));
         }
@@ -340,7 +427,8 @@ impl OrientationDmp {
                 f *= s / sum;
             }
             let e = rot_err(&g, &q);
-            let deta = self.stiffness * e - self.damping * eta - self.stiffness * e0 * s + self.stiffness * f;
+            let deta = self.stiffness * e - self.damping * eta - self.stiffness * e0 * s
+                + self.stiffness * f;
             eta += dt / tau * deta;
             q = UnitQuaternion::from_scaled_axis(eta * (dt / tau)) * q;
             s *= decay;
@@ -361,7 +449,10 @@ mod tests {
             .flat_map(|t| {
                 let s = t / 2.0;
                 let mj = 10.0 * s.powi(3) - 15.0 * s.powi(4) + 6.0 * s.powi(5);
-                [mj + 0.3 * (std::f64::consts::PI * mj).sin().powi(2), (2.0 * std::f64::consts::PI * mj).sin() * 0.5]
+                [
+                    mj + 0.3 * (std::f64::consts::PI * mj).sin().powi(2),
+                    (2.0 * std::f64::consts::PI * mj).sin() * 0.5,
+                ]
             })
             .collect();
         Demonstration::new(2, t, pos, None).expect("demo")
@@ -370,8 +461,17 @@ mod tests {
     #[test]
     fn reproduces_the_demonstration() {
         let d = demo();
-        let dmp = Dmp::fit(&d, &DmpConfig { n_basis: 50, ..Default::default() }).expect("fit");
-        let tr = dmp.rollout(None, None, 1.0, 0.01, 1000, 1e-3).expect("rollout");
+        let dmp = Dmp::fit(
+            &d,
+            &DmpConfig {
+                n_basis: 50,
+                ..Default::default()
+            },
+        )
+        .expect("fit");
+        let tr = dmp
+            .rollout(None, None, 1.0, 0.01, 1000, 1e-3)
+            .expect("rollout");
         let mut se = 0.0;
         for i in 0..d.len() {
             for j in 0..2 {
@@ -389,7 +489,9 @@ mod tests {
         let d = demo();
         let dmp = Dmp::fit(&d, &DmpConfig::default()).expect("fit");
         let goal = [5.0, -1.0];
-        let tr = dmp.rollout(Some(&[0.5, 0.5]), Some(&goal), 2.0, 0.01, 5000, 1e-3).expect("rollout");
+        let tr = dmp
+            .rollout(Some(&[0.5, 0.5]), Some(&goal), 2.0, 0.01, 5000, 1e-3)
+            .expect("rollout");
         assert!(tr.reached);
         assert!(tr.t[tr.len() - 1] >= 2.0 * d.duration() - 1e-9);
     }
@@ -397,10 +499,25 @@ mod tests {
     #[test]
     fn orientation_dmp_reaches_goal_and_tracks_demo() {
         let t: Vec<f64> = (0..=100).map(|i| i as f64 * 0.02).collect();
-        let q: Vec<_> = t.iter().map(|t| UnitQuaternion::from_euler_angles(0.5 * t, (2.0 * t).sin() * 0.3, -0.2 * t)).collect();
-        let dmp = OrientationDmp::fit(&t, &q, &DmpConfig { n_basis: 40, ..Default::default() }).expect("fit");
+        let q: Vec<_> = t
+            .iter()
+            .map(|t| UnitQuaternion::from_euler_angles(0.5 * t, (2.0 * t).sin() * 0.3, -0.2 * t))
+            .collect();
+        let dmp = OrientationDmp::fit(
+            &t,
+            &q,
+            &DmpConfig {
+                n_basis: 40,
+                ..Default::default()
+            },
+        )
+        .expect("fit");
         let out = dmp.rollout(None, None, 1.0, 0.02).expect("rollout");
-        let max_err = out.iter().zip(&q).map(|(a, b)| a.angle_to(b)).fold(0.0, f64::max);
+        let max_err = out
+            .iter()
+            .zip(&q)
+            .map(|(a, b)| a.angle_to(b))
+            .fold(0.0, f64::max);
         assert!(max_err < 0.05, "max angle error {max_err}");
     }
 }

@@ -72,7 +72,9 @@ impl FirstOrderDs for LinearDs {
         check_dim("linear DS state", n, x.len())?;
         check_dim("linear DS output", n, out.len())?;
         for r in 0..n {
-            out[r] = (0..n).map(|c| self.a[r * n + c] * (x[c] - self.goal[c])).sum();
+            out[r] = (0..n)
+                .map(|c| self.a[r * n + c] * (x[c] - self.goal[c]))
+                .sum();
         }
         Ok(())
     }
@@ -127,10 +129,16 @@ impl RolloutConfig {
     /// Rejects non-positive or non-finite settings.
     pub fn validate(&self) -> Result<()> {
         if !(self.dt > 0.0) || !self.dt.is_finite() {
-            return Err(invalid("dt", format!("must be finite and > 0, got {}", self.dt)));
+            return Err(invalid(
+                "dt",
+                format!("must be finite and > 0, got {}", self.dt),
+            ));
         }
         if !(self.tol >= 0.0) || !self.tol.is_finite() {
-            return Err(invalid("tol", format!("must be finite and >= 0, got {}", self.tol)));
+            return Err(invalid(
+                "tol",
+                format!("must be finite and >= 0, got {}", self.tol),
+            ));
         }
         if self.max_steps == 0 {
             return Err(invalid("max_steps", "must be at least 1"));
@@ -141,7 +149,11 @@ impl RolloutConfig {
 
 /// Integrates `policy` from `start` by explicit Euler (`x ← x + dt·ẋ`) until the goal is within
 /// `tol` or `max_steps` are done. Every sample, including the start, is recorded.
-pub fn rollout<P: DsPolicy + ?Sized>(policy: &mut P, start: &[f64], cfg: &RolloutConfig) -> Result<Trajectory> {
+pub fn rollout<P: DsPolicy + ?Sized>(
+    policy: &mut P,
+    start: &[f64],
+    cfg: &RolloutConfig,
+) -> Result<Trajectory> {
     cfg.validate()?;
     let n = policy.dim();
     check_dim("rollout start", n, start.len())?;
@@ -150,8 +162,17 @@ pub fn rollout<P: DsPolicy + ?Sized>(policy: &mut P, start: &[f64], cfg: &Rollou
     let goal = policy.goal().to_vec();
     let mut x = start.to_vec();
     let mut v = vec![0.0; n];
-    let mut tr = Trajectory { dim: n, ..Default::default() };
-    let dist = |x: &[f64]| x.iter().zip(&goal).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+    let mut tr = Trajectory {
+        dim: n,
+        ..Default::default()
+    };
+    let dist = |x: &[f64]| {
+        x.iter()
+            .zip(&goal)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt()
+    };
     for i in 0..=cfg.max_steps {
         policy.step(&x, cfg.dt, &mut v)?;
         tr.t.push(i as f64 * cfg.dt);
@@ -168,7 +189,10 @@ pub fn rollout<P: DsPolicy + ?Sized>(policy: &mut P, start: &[f64], cfg: &Rollou
             x[j] += cfg.dt * v[j];
         }
         if x.iter().any(|v| !v.is_finite()) {
-            return Err(invalid("rollout", format!("state diverged to a non-finite value at step {i}")));
+            return Err(invalid(
+                "rollout",
+                format!("state diverged to a non-finite value at step {i}"),
+            ));
         }
     }
     Ok(tr)

@@ -22,10 +22,18 @@ fn check(a: &[f64], b: &[f64], dim: usize) -> Result<(usize, usize)> {
     }
     for (name, s) in [("first sequence", a), ("second sequence", b)] {
         if s.len() % dim != 0 {
-            return Err(MotionError::DimensionMismatch { what: format!("DTW {name} length vs dimension"), expected: dim, got: s.len() % dim });
+            return Err(MotionError::DimensionMismatch {
+                what: format!("DTW {name} length vs dimension"),
+                expected: dim,
+                got: s.len() % dim,
+            });
         }
         if s.is_empty() {
-            return Err(MotionError::TooFewSamples { what: format!("DTW {name}"), needed: 1, got: 0 });
+            return Err(MotionError::TooFewSamples {
+                what: format!("DTW {name}"),
+                needed: 1,
+                got: 0,
+            });
         }
         check_finite(&format!("DTW {name}"), s)?;
     }
@@ -74,7 +82,9 @@ pub fn dtw_align(a: &[f64], b: &[f64], dim: usize, window: Option<usize>) -> Res
         let hi = m.min(i.saturating_add(w));
         for j in lo..=hi {
             let c = sq(&a[(i - 1) * dim..i * dim], &b[(j - 1) * dim..j * dim]);
-            acc[i * cols + j] = c + acc[(i - 1) * cols + j - 1].min(acc[(i - 1) * cols + j]).min(acc[i * cols + j - 1]);
+            acc[i * cols + j] = c + acc[(i - 1) * cols + j - 1]
+                .min(acc[(i - 1) * cols + j])
+                .min(acc[i * cols + j - 1]);
         }
     }
     let mut path = vec![(n - 1, m - 1)];
@@ -94,7 +104,10 @@ pub fn dtw_align(a: &[f64], b: &[f64], dim: usize, window: Option<usize>) -> Res
         path.push((i - 1, j - 1));
     }
     path.reverse();
-    Ok(Alignment { distance: acc[n * cols + m].sqrt(), path })
+    Ok(Alignment {
+        distance: acc[n * cols + m].sqrt(),
+        path,
+    })
 }
 
 fn triangle_area(p: &[f64], q: &[f64], r: &[f64]) -> f64 {
@@ -136,7 +149,11 @@ pub struct Knn {
 impl Knn {
     /// Empty classifier for sequences of `dim` columns.
     pub fn new(dim: usize, window: Option<usize>) -> Self {
-        Self { dim, templates: Vec::new(), window }
+        Self {
+            dim,
+            templates: Vec::new(),
+            window,
+        }
     }
 
     /// Adds a labelled template (row-major, `dim` columns).
@@ -159,7 +176,11 @@ impl Knn {
     /// member) and the distance to the nearest template.
     pub fn classify(&self, query: &[f64], k: usize) -> Result<(String, f64)> {
         if self.templates.is_empty() {
-            return Err(MotionError::TooFewSamples { what: "k-NN templates".into(), needed: 1, got: 0 });
+            return Err(MotionError::TooFewSamples {
+                what: "k-NN templates".into(),
+                needed: 1,
+                got: 0,
+            });
         }
         if k == 0 {
             return Err(invalid("k", "must be at least 1"));
@@ -180,7 +201,11 @@ impl Knn {
                 None => votes.push((label, 1, *dist)),
             }
         }
-        let best = votes.iter().max_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2))).map(|v| v.0.to_string()).unwrap_or_default();
+        let best = votes
+            .iter()
+            .max_by(|a, b| a.1.cmp(&b.1).then(b.2.total_cmp(&a.2)))
+            .map(|v| v.0.to_string())
+            .unwrap_or_default();
         Ok((best, d[0].0))
     }
 }
@@ -209,7 +234,11 @@ mod tests {
         let d = dtw_distance(&a, &b, 2, None).expect("d");
         let al = dtw_align(&a, &b, 2, None).expect("al");
         assert!((d - al.distance).abs() < 1e-12);
-        let s: f64 = al.path.iter().map(|&(i, j)| sq(&a[i * 2..i * 2 + 2], &b[j * 2..j * 2 + 2])).sum();
+        let s: f64 = al
+            .path
+            .iter()
+            .map(|&(i, j)| sq(&a[i * 2..i * 2 + 2], &b[j * 2..j * 2 + 2]))
+            .sum();
         assert!((s.sqrt() - d).abs() < 1e-12);
     }
 
@@ -224,8 +253,10 @@ mod tests {
     fn knn_classifies_by_shape() {
         let mut knn = Knn::new(1, None);
         for s in [0.9, 1.0, 1.1] {
-            knn.add("sin", (0..40).map(|i| (i as f64 * 0.2 * s).sin()).collect()).expect("add");
-            knn.add("ramp", (0..40).map(|i| i as f64 * 0.05 * s).collect()).expect("add");
+            knn.add("sin", (0..40).map(|i| (i as f64 * 0.2 * s).sin()).collect())
+                .expect("add");
+            knn.add("ramp", (0..40).map(|i| i as f64 * 0.05 * s).collect())
+                .expect("add");
         }
         let q: Vec<f64> = (0..45).map(|i| (i as f64 * 0.19).sin()).collect();
         assert_eq!(knn.classify(&q, 3).expect("knn").0, "sin");

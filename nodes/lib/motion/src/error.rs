@@ -87,7 +87,10 @@ pub type Result<T> = std::result::Result<T, MotionError>;
 /// Fails with [`MotionError::NotFinite`] if any value is NaN or infinite.
 pub(crate) fn check_finite(what: &str, v: &[f64]) -> Result<()> {
     match v.iter().position(|x| !x.is_finite()) {
-        Some(index) => Err(MotionError::NotFinite { what: what.to_string(), index }),
+        Some(index) => Err(MotionError::NotFinite {
+            what: what.to_string(),
+            index,
+        }),
         None => Ok(()),
     }
 }
@@ -97,11 +100,18 @@ pub(crate) fn check_dim(what: &str, expected: usize, got: usize) -> Result<()> {
     if expected == got {
         Ok(())
     } else {
-        Err(MotionError::DimensionMismatch { what: what.to_string(), expected, got })
+        Err(MotionError::DimensionMismatch {
+            what: what.to_string(),
+            expected,
+            got,
+        })
     }
 }
 
 /// Shorthand for [`MotionError::InvalidParameter`].
 pub(crate) fn invalid(name: &str, reason: impl Into<String>) -> MotionError {
-    MotionError::InvalidParameter { name: name.to_string(), reason: reason.into() }
+    MotionError::InvalidParameter {
+        name: name.to_string(),
+        reason: reason.into(),
+    }
 }

@@ -41,7 +41,13 @@ pub struct EmConfig {
 
 impl Default for EmConfig {
     fn default() -> Self {
-        Self { max_iter: 200, tol: 1e-6, reg_covar: 1e-6, seed: 0, kmeans_iter: 10 }
+        Self {
+            max_iter: 200,
+            tol: 1e-6,
+            reg_covar: 1e-6,
+            seed: 0,
+            kmeans_iter: 10,
+        }
     }
 }
 
@@ -52,10 +58,16 @@ impl EmConfig {
             return Err(invalid("max_iter", "must be at least 1"));
         }
         if !(self.tol >= 0.0) || !self.tol.is_finite() {
-            return Err(invalid("tol", format!("must be finite and >= 0, got {}", self.tol)));
+            return Err(invalid(
+                "tol",
+                format!("must be finite and >= 0, got {}", self.tol),
+            ));
         }
         if !(self.reg_covar >= 0.0) || !self.reg_covar.is_finite() {
-            return Err(invalid("reg_covar", format!("must be finite and >= 0, got {}", self.reg_covar)));
+            return Err(invalid(
+                "reg_covar",
+                format!("must be finite and >= 0, got {}", self.reg_covar),
+            ));
         }
         Ok(())
     }
@@ -123,12 +135,18 @@ impl Gmm {
             });
         }
         check_finite("gmm.priors", &self.priors)?;
-        if self.priors.iter().any(|p| *p < 0.0) || (self.priors.iter().sum::<f64>() - 1.0).abs() > 1e-6 {
+        if self.priors.iter().any(|p| *p < 0.0)
+            || (self.priors.iter().sum::<f64>() - 1.0).abs() > 1e-6
+        {
             return Err(invalid("gmm.priors", "must be non-negative and sum to 1"));
         }
         for c in 0..k {
             crate::error::check_dim(&format!("gmm.means[{c}]"), self.dim, self.means[c].len())?;
-            crate::error::check_dim(&format!("gmm.covariances[{c}]"), self.dim * self.dim, self.covariances[c].len())?;
+            crate::error::check_dim(
+                &format!("gmm.covariances[{c}]"),
+                self.dim * self.dim,
+                self.covariances[c].len(),
+            )?;
             check_finite(&format!("gmm.means[{c}]"), &self.means[c])?;
             check_finite(&format!("gmm.covariances[{c}]"), &self.covariances[c])?;
         }
@@ -142,7 +160,10 @@ impl Gmm {
         for (c, cov) in self.covariances.iter().enumerate() {
             let mut l = vec![0.0; d * d];
             if !cholesky(cov, d, &mut l) {
-                return Err(MotionError::SingularCovariance { component: c, context: context.to_string() });
+                return Err(MotionError::SingularCovariance {
+                    component: c,
+                    context: context.to_string(),
+                });
             }
             log_norm.push(-0.5 * chol_logdet(&l, d) - 0.5 * d as f64 * LN_2PI);
             chol.push(l);
@@ -245,7 +266,11 @@ fn check_data(data: &[f64], dim: usize, k: usize) -> Result<()> {
     }
     let n = data.len() / dim;
     if n < k.max(2) {
-        return Err(MotionError::TooFewSamples { what: format!("GMM with {k} components"), needed: k.max(2), got: n });
+        return Err(MotionError::TooFewSamples {
+            what: format!("GMM with {k} components"),
+            needed: k.max(2),
+            got: n,
+        });
     }
     check_finite("training data", data)
 }
@@ -384,7 +409,8 @@ fn m_step(data: &[f64], d: usize, k: usize, resp: &[f64], reg: f64) -> Gmm {
     for i in 0..n {
         for a in 0..d {
             for b in 0..d {
-                gcov[a * d + b] += (data[i * d + a] - gmean[a]) * (data[i * d + b] - gmean[b]) / n as f64;
+                gcov[a * d + b] +=
+                    (data[i * d + a] - gmean[a]) * (data[i * d + b] - gmean[b]) / n as f64;
             }
         }
     }
@@ -407,9 +433,17 @@ fn m_step(data: &[f64], d: usize, k: usize, resp: &[f64], reg: f64) -> Gmm {
         }
     }
     let total: f64 = nk.iter().sum();
-    let priors = nk.iter().map(|v| (v / total).max(f64::MIN_POSITIVE)).collect::<Vec<_>>();
+    let priors = nk
+        .iter()
+        .map(|v| (v / total).max(f64::MIN_POSITIVE))
+        .collect::<Vec<_>>();
     let s: f64 = priors.iter().sum();
-    Gmm { dim: d, priors: priors.iter().map(|p| p / s).collect(), means, covariances: covs }
+    Gmm {
+        dim: d,
+        priors: priors.iter().map(|p| p / s).collect(),
+        means,
+        covariances: covs,
+    }
 }
 
 fn em(data: &[f64], d: usize, mut gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
@@ -446,7 +480,10 @@ fn em(data: &[f64], d: usize, mut gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
         }
         let mean_ll = ll / n as f64;
         if !mean_ll.is_finite() {
-            return Err(invalid("training data", "log-likelihood is not finite (degenerate data?)"));
+            return Err(invalid(
+                "training data",
+                "log-likelihood is not finite (degenerate data?)",
+            ));
         }
         if (mean_ll - prev).abs() < cfg.tol {
             converged = true;
@@ -460,7 +497,13 @@ fn em(data: &[f64], d: usize, mut gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
         ll = gmm.log_likelihood(data)?;
     }
     let bic = -2.0 * ll + gmm.n_parameters() as f64 * (n as f64).ln();
-    Ok(GmmFit { gmm, log_likelihood: ll, iterations, converged, bic })
+    Ok(GmmFit {
+        gmm,
+        log_likelihood: ll,
+        iterations,
+        converged,
+        bic,
+    })
 }
 
 #[cfg(test)]
@@ -486,7 +529,10 @@ mod tests {
         assert_eq!(sel.best.gmm.n_components(), 2, "scores {:?}", sel.scores);
         let mut xs: Vec<f64> = sel.best.gmm.means.iter().map(|m| m[0]).collect();
         xs.sort_by(f64::total_cmp);
-        assert!((xs[0] + 5.0).abs() < 0.1 && (xs[1] - 5.0).abs() < 0.1, "{xs:?}");
+        assert!(
+            (xs[0] + 5.0).abs() < 0.1 && (xs[1] - 5.0).abs() < 0.1,
+            "{xs:?}"
+        );
         for p in &sel.best.gmm.priors {
             assert!((p - 0.5).abs() < 0.02, "{p}");
         }
@@ -501,7 +547,10 @@ mod tests {
         let init = kmeans_init(&data, 2, 3, &EmConfig::default()).expect("init");
         let mut g = init;
         for _ in 0..10 {
-            let cfg = EmConfig { max_iter: 1, ..EmConfig::default() };
+            let cfg = EmConfig {
+                max_iter: 1,
+                ..EmConfig::default()
+            };
             let fit = Gmm::fit_from(&data, &g, &cfg).expect("em");
             let ll = fit.gmm.log_likelihood(&data).expect("ll");
             assert!(ll >= prev - 1e-9, "{ll} < {prev}");
@@ -512,14 +561,37 @@ mod tests {
 
     #[test]
     fn bad_inputs_are_rejected() {
-        assert!(matches!(Gmm::fit(&[1.0, f64::NAN, 2.0, 3.0], 2, 1, &EmConfig::default()), Err(MotionError::NotFinite { .. })));
-        assert!(matches!(Gmm::fit(&[1.0, 2.0, 3.0], 2, 1, &EmConfig::default()), Err(MotionError::DimensionMismatch { .. })));
-        assert!(matches!(Gmm::fit(&[1.0, 2.0], 2, 1, &EmConfig::default()), Err(MotionError::TooFewSamples { .. })));
+        assert!(matches!(
+            Gmm::fit(&[1.0, f64::NAN, 2.0, 3.0], 2, 1, &EmConfig::default()),
+            Err(MotionError::NotFinite { .. })
+        ));
+        assert!(matches!(
+            Gmm::fit(&[1.0, 2.0, 3.0], 2, 1, &EmConfig::default()),
+            Err(MotionError::DimensionMismatch { .. })
+        ));
+        assert!(matches!(
+            Gmm::fit(&[1.0, 2.0], 2, 1, &EmConfig::default()),
+            Err(MotionError::TooFewSamples { .. })
+        ));
         // Identical points and no regularisation: covariance is singular.
-        let cfg = EmConfig { reg_covar: 0.0, ..EmConfig::default() };
+        let cfg = EmConfig {
+            reg_covar: 0.0,
+            ..EmConfig::default()
+        };
         let r = Gmm::fit(&[1.0, 1.0, 1.0, 1.0, 1.0, 1.0], 2, 1, &cfg);
-        assert!(matches!(r, Err(MotionError::SingularCovariance { .. })), "{r:?}");
-        let g = Gmm { dim: 2, priors: vec![1.0], means: vec![vec![0.0, 0.0]], covariances: vec![vec![1.0, 1.0, 1.0, 1.0]] };
-        assert!(matches!(g.validate(), Err(MotionError::SingularCovariance { component: 0, .. })));
+        assert!(
+            matches!(r, Err(MotionError::SingularCovariance { .. })),
+            "{r:?}"
+        );
+        let g = Gmm {
+            dim: 2,
+            priors: vec![1.0],
+            means: vec![vec![0.0, 0.0]],
+            covariances: vec![vec![1.0, 1.0, 1.0, 1.0]],
+        };
+        assert!(matches!(
+            g.validate(),
+            Err(MotionError::SingularCovariance { component: 0, .. })
+        ));
     }
 }

@@ -61,7 +61,10 @@ impl TryFrom<GmrSpec> for Gmr {
 
 impl From<Gmr> for GmrSpec {
     fn from(g: Gmr) -> Self {
-        GmrSpec { gmm: g.gmm, n_in: g.n_in }
+        GmrSpec {
+            gmm: g.gmm,
+            n_in: g.n_in,
+        }
     }
 }
 
@@ -77,7 +80,9 @@ impl Gmr {
         if gmm.n_components() > MAX_COMPONENTS || n_in > MAX_DIM || n_out > MAX_DIM {
             return Err(invalid(
                 "gmm",
-                format!("at most {MAX_COMPONENTS} components and {MAX_DIM} input/output dimensions are supported"),
+                format!(
+                    "at most {MAX_COMPONENTS} components and {MAX_DIM} input/output dimensions are supported"
+                ),
             ));
         }
         let mut comps = Vec::with_capacity(gmm.n_components());
@@ -92,7 +97,10 @@ impl Gmr {
             }
             let mut l = vec![0.0; n_in * n_in];
             if !cholesky(&sxx, n_in, &mut l) {
-                return Err(MotionError::SingularCovariance { component: c, context: "GMR input block Σ_xx".into() });
+                return Err(MotionError::SingularCovariance {
+                    component: c,
+                    context: "GMR input block Σ_xx".into(),
+                });
             }
             let mut inv = vec![0.0; n_in * n_in];
             chol_inverse(&l, n_in, &mut inv);
@@ -114,7 +122,9 @@ impl Gmr {
             let mut cond_cov = vec![0.0; n_out * n_out];
             for r in 0..n_out {
                 for q in 0..n_out {
-                    let v: f64 = (0..n_in).map(|k| a[r * n_in + k] * s[k * d + n_in + q]).sum();
+                    let v: f64 = (0..n_in)
+                        .map(|k| a[r * n_in + k] * s[k * d + n_in + q])
+                        .sum();
                     cond_cov[r * n_out + q] = s[(n_in + r) * d + n_in + q] - v;
                 }
             }
@@ -128,7 +138,12 @@ impl Gmr {
                 cond_cov,
             });
         }
-        Ok(Self { gmm, n_in, n_out, comps })
+        Ok(Self {
+            gmm,
+            n_in,
+            n_out,
+            comps,
+        })
     }
 
     /// Fits the joint mixture on `[input, output]` rows and builds the regressor.
@@ -212,7 +227,12 @@ impl Gmr {
     }
 
     /// Conditional mean and the covariance `Σ_k h_k² (Σ_y − Σ_yx Σ_xx⁻¹ Σ_xy)` of eq. A.23.
-    pub fn predict_with_covariance(&self, x: &[f64], mean: &mut [f64], cov: &mut [f64]) -> Result<()> {
+    pub fn predict_with_covariance(
+        &self,
+        x: &[f64],
+        mean: &mut [f64],
+        cov: &mut [f64],
+    ) -> Result<()> {
         check_dim("GMR covariance output", self.n_out * self.n_out, cov.len())?;
         check_dim("GMR output", self.n_out, mean.len())?;
         let k = self.comps.len();
@@ -256,7 +276,10 @@ impl GmrDs {
         let n = target.len();
         check_dim("GMR-DS mixture dimension (2 × state)", 2 * n, gmm.dim)?;
         check_finite("GMR-DS target", &target)?;
-        Ok(Self { gmr: Gmr::new(gmm, n)?, target })
+        Ok(Self {
+            gmr: Gmr::new(gmm, n)?,
+            target,
+        })
     }
 
     /// State dimension `n`.
@@ -301,11 +324,17 @@ mod tests {
 
     #[test]
     fn single_component_is_the_gaussian_conditional() {
-        let g = Gmm { dim: 2, priors: vec![1.0], means: vec![vec![1.0, 2.0]], covariances: vec![vec![2.0, 1.0, 1.0, 3.0]] };
+        let g = Gmm {
+            dim: 2,
+            priors: vec![1.0],
+            means: vec![vec![1.0, 2.0]],
+            covariances: vec![vec![2.0, 1.0, 1.0, 3.0]],
+        };
         let gmr = Gmr::new(g, 1).expect("gmr");
         let mut m = [0.0];
         let mut c = [0.0];
-        gmr.predict_with_covariance(&[3.0], &mut m, &mut c).expect("predict");
+        gmr.predict_with_covariance(&[3.0], &mut m, &mut c)
+            .expect("predict");
         assert!((m[0] - (2.0 + 0.5 * 2.0)).abs() < 1e-12);
         assert!((c[0] - (3.0 - 0.5)).abs() < 1e-12);
     }
@@ -326,7 +355,10 @@ mod tests {
         assert!(gmr.predict(&[0.0, 1.0], &mut m).is_err());
         let mut g = toy_gmm();
         g.covariances[1] = vec![0.0, 0.0, 0.0, 1.0];
-        assert!(matches!(Gmr::new(g, 1), Err(MotionError::SingularCovariance { .. })));
+        assert!(matches!(
+            Gmr::new(g, 1),
+            Err(MotionError::SingularCovariance { .. })
+        ));
     }
 
     #[test]

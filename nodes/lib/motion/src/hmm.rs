@@ -31,7 +31,13 @@ pub struct HmmConfig {
 
 impl Default for HmmConfig {
     fn default() -> Self {
-        Self { states: 10, max_iter: 50, tol: 1e-6, reg_covar: 1e-6, forgetting: 0.5 }
+        Self {
+            states: 10,
+            max_iter: 50,
+            tol: 1e-6,
+            reg_covar: 1e-6,
+            forgetting: 0.5,
+        }
     }
 }
 
@@ -95,11 +101,19 @@ impl HmmPrimitive {
         }
         for (i, d) in demos.iter().enumerate() {
             if d.len() < 2 * l {
-                return Err(MotionError::TooFewSamples { what: format!("HMM demonstration {i} ({l} states)"), needed: 2 * l, got: d.len() });
+                return Err(MotionError::TooFewSamples {
+                    what: format!("HMM demonstration {i} ({l} states)"),
+                    needed: 2 * l,
+                    got: d.len(),
+                });
             }
         }
         let seqs: Vec<&[f64]> = demos.iter().map(|d| d.pos.as_slice()).collect();
-        let dt = demos.iter().map(|d| d.duration() / (d.len() - 1) as f64).sum::<f64>() / demos.len() as f64;
+        let dt = demos
+            .iter()
+            .map(|d| d.duration() / (d.len() - 1) as f64)
+            .sum::<f64>()
+            / demos.len() as f64;
         // Step 1 initialisation: equal segments.
         let mut resp: Vec<Vec<f64>> = seqs
             .iter()
@@ -116,7 +130,16 @@ impl HmmPrimitive {
             dim: n,
             prior: (0..l).map(|i| if i == 0 { 1.0 } else { 0.0 }).collect(),
             trans: vec![0.0; l * l],
-            states: vec![HmmState { mean: vec![0.0; n], cov: vec![0.0; n * n], t_mean: 0.5, t_var: 1.0 / 12.0, ts_cov: vec![0.0; n] }; l],
+            states: vec![
+                HmmState {
+                    mean: vec![0.0; n],
+                    cov: vec![0.0; n * n],
+                    t_mean: 0.5,
+                    t_var: 1.0 / 12.0,
+                    ts_cov: vec![0.0; n]
+                };
+                l
+            ],
             durations: vec![1.0; l],
             dt,
             config: cfg.clone(),
@@ -156,7 +179,10 @@ impl HmmPrimitive {
         for (i, s) in self.states.iter().enumerate() {
             let mut lc = vec![0.0; n * n];
             if !cholesky(&s.cov, n, &mut lc) {
-                return Err(MotionError::SingularCovariance { component: i, context: format!("HMM state output {:?}", s.cov) });
+                return Err(MotionError::SingularCovariance {
+                    component: i,
+                    context: format!("HMM state output {:?}", s.cov),
+                });
             }
             norm.push(-0.5 * chol_logdet(&lc, n) - 0.5 * n as f64 * LN_2PI);
             chol.push(lc);
@@ -214,7 +240,11 @@ impl HmmPrimitive {
             }
             let z = logsumexp(&tmp);
             for i in 0..l {
-                gamma[t * l + i] = if z.is_finite() { (tmp[i] - z).exp() } else { 0.0 };
+                gamma[t * l + i] = if z.is_finite() {
+                    (tmp[i] - z).exp()
+                } else {
+                    0.0
+                };
             }
         }
         let mut xi = vec![0.0; l * l];
@@ -225,7 +255,11 @@ impl HmmPrimitive {
                         continue;
                     }
                     for j in 0..l {
-                        let v = alpha[t * l + i] + la[i * l + j] + logb[(t + 1) * l + j] + beta[(t + 1) * l + j] - ll;
+                        let v = alpha[t * l + i]
+                            + la[i * l + j]
+                            + logb[(t + 1) * l + j]
+                            + beta[(t + 1) * l + j]
+                            - ll;
                         if v > -745.0 {
                             xi[i * l + j] += v.exp();
                         }
@@ -237,7 +271,11 @@ impl HmmPrimitive {
     }
 
     /// One weighted Baum–Welch iteration; returns the log-likelihood before the update and `γ`.
-    fn baum_welch_step(&mut self, seqs: &[&[f64]], weights: &[f64]) -> Result<(f64, Vec<Vec<f64>>)> {
+    fn baum_welch_step(
+        &mut self,
+        seqs: &[&[f64]],
+        weights: &[f64],
+    ) -> Result<(f64, Vec<Vec<f64>>)> {
         let (n, l) = (self.dim, self.l());
         let e = self.emissions()?;
         let mut total_ll = 0.0;
@@ -252,7 +290,7 @@ impl HmmPrimitive {
                 self.log_b(&e, &s[t * n..(t + 1) * n], &mut logb[t * l..(t + 1) * l]);
             }
             let (ll, g, xi) = self.forward_backward(&logb, t_len);
-                total_ll += w * ll;
+            total_ll += w * ll;
             for i in 0..l {
                 prior[i] += w * g[i];
                 for t in 0..t_len - 1 {
@@ -280,7 +318,12 @@ impl HmmPrimitive {
         Ok((total_ll, gammas))
     }
 
-    fn m_step_emissions(&mut self, seqs: &[&[f64]], weights: &[f64], gammas: &[Vec<f64>]) -> Result<()> {
+    fn m_step_emissions(
+        &mut self,
+        seqs: &[&[f64]],
+        weights: &[f64],
+        gammas: &[Vec<f64>],
+    ) -> Result<()> {
         let (n, l) = (self.dim, self.l());
         for i in 0..l {
             let mut w_sum = 0.0;
@@ -304,7 +347,8 @@ impl HmmPrimitive {
                     let r = w * g[t * l + i];
                     for a in 0..n {
                         for b in 0..n {
-                            cov[a * n + b] += r * (s[t * n + a] - mean[a]) * (s[t * n + b] - mean[b]);
+                            cov[a * n + b] +=
+                                r * (s[t * n + a] - mean[a]) * (s[t * n + b] - mean[b]);
                         }
                     }
                 }
@@ -325,7 +369,11 @@ impl HmmPrimitive {
     pub fn viterbi(&self, seq: &[f64]) -> Result<Vec<usize>> {
         let (n, l) = (self.dim, self.l());
         if !seq.len().is_multiple_of(n) || seq.is_empty() {
-            return Err(MotionError::DimensionMismatch { what: "HMM sequence length vs dimension".into(), expected: n, got: seq.len() % n });
+            return Err(MotionError::DimensionMismatch {
+                what: "HMM sequence length vs dimension".into(),
+                expected: n,
+                got: seq.len() % n,
+            });
         }
         check_finite("HMM sequence", seq)?;
         let e = self.emissions()?;
@@ -354,7 +402,9 @@ impl HmmPrimitive {
             delta = nd;
         }
         let mut q = vec![0usize; t_len];
-        q[t_len - 1] = (0..l).max_by(|a, b| delta[*a].total_cmp(&delta[*b])).unwrap_or(0);
+        q[t_len - 1] = (0..l)
+            .max_by(|a, b| delta[*a].total_cmp(&delta[*b]))
+            .unwrap_or(0);
         for t in (1..t_len).rev() {
             q[t - 1] = back[t * l + q[t]];
         }
@@ -428,15 +478,26 @@ impl HmmPrimitive {
         let (n, l) = (self.dim, self.l());
         // Step 6: deterministic state sequence.
         let mut q = Vec::new();
-        let mut i = self.prior.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map_or(0, |(i, _)| i);
+        let mut i = self
+            .prior
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))
+            .map_or(0, |(i, _)| i);
         let mut visited = vec![false; l];
         loop {
             visited[i] = true;
             let aii = self.trans[i * l + i];
-            let d = if aii < 1.0 - 1e-9 { 1.0 / (1.0 - aii) } else { self.durations[i] };
+            let d = if aii < 1.0 - 1e-9 {
+                1.0 / (1.0 - aii)
+            } else {
+                self.durations[i]
+            };
             let d = d.round().max(1.0) as usize;
             q.extend(std::iter::repeat_n(i, d));
-            let next = (0..l).filter(|&j| j != i).max_by(|a, b| self.trans[i * l + a].total_cmp(&self.trans[i * l + b]));
+            let next = (0..l)
+                .filter(|&j| j != i)
+                .max_by(|a, b| self.trans[i * l + a].total_cmp(&self.trans[i * l + b]));
             match next {
                 Some(j) if self.trans[i * l + j] > 0.0 && !visited[j] => i = j,
                 _ => break,
@@ -471,7 +532,11 @@ impl HmmPrimitive {
                 if g == 0.0 {
                     continue;
                 }
-                let tk = if run[k].1 > 0 { (t as f64 - run[k].0 as f64 + 0.5) / run[k].1 as f64 } else { s.t_mean };
+                let tk = if run[k].1 > 0 {
+                    (t as f64 - run[k].0 as f64 + 0.5) / run[k].1 as f64
+                } else {
+                    s.t_mean
+                };
                 for j in 0..n {
                     pos[t * n + j] += g * (s.mean[j] + s.ts_cov[j] / s.t_var * (tk - s.t_mean));
                 }
@@ -489,7 +554,10 @@ impl HmmPrimitive {
         // Resample to dt by linear interpolation.
         let duration = (t_len - 1) as f64 * self.dt;
         let m = (duration / dt).floor() as usize + 1;
-        let mut tr = Trajectory { dim: n, ..Default::default() };
+        let mut tr = Trajectory {
+            dim: n,
+            ..Default::default()
+        };
         for k in 0..m {
             let tt = k as f64 * dt;
             let f = (tt / self.dt).min((t_len - 1) as f64);
@@ -533,14 +601,24 @@ mod tests {
 
     fn demo(scale: f64) -> Demonstration {
         let t: Vec<f64> = (0..150).map(|i| i as f64 * 0.01).collect();
-        let pos = t.iter().flat_map(|t| [scale * (2.0 * t).sin(), t * t]).collect();
+        let pos = t
+            .iter()
+            .flat_map(|t| [scale * (2.0 * t).sin(), t * t])
+            .collect();
         Demonstration::new(2, t, pos, None).expect("demo")
     }
 
     #[test]
     fn learns_and_generates_a_smooth_copy() {
         let demos = [demo(1.0), demo(1.05), demo(0.95)];
-        let hmm = HmmPrimitive::fit(&demos, &HmmConfig { states: 8, ..Default::default() }).expect("fit");
+        let hmm = HmmPrimitive::fit(
+            &demos,
+            &HmmConfig {
+                states: 8,
+                ..Default::default()
+            },
+        )
+        .expect("fit");
         // Left-to-right structure is kept.
         let l = hmm.states.len();
         for i in 0..l {
@@ -550,26 +628,54 @@ mod tests {
         }
         let tr = hmm.generate(Some(demos[0].position(0)), 0.01).expect("gen");
         // Similar duration and the generated path stays near the demonstration (DTW-aligned).
-        assert!((tr.t[tr.len() - 1] - demos[0].duration()).abs() < 0.3, "{}", tr.t[tr.len() - 1]);
-        let d = crate::dtw::dtw_distance(&tr.pos, &demos[0].pos, 2, None).expect("dtw") / (tr.len() as f64).sqrt();
+        assert!(
+            (tr.t[tr.len() - 1] - demos[0].duration()).abs() < 0.3,
+            "{}",
+            tr.t[tr.len() - 1]
+        );
+        let d = crate::dtw::dtw_distance(&tr.pos, &demos[0].pos, 2, None).expect("dtw")
+            / (tr.len() as f64).sqrt();
         // A.28 responsibilities smear neighbouring states (weak; see the crate notes).
         assert!(d < 0.2, "per-sample distance {d}");
         // Smooth: no step larger than a few demo steps.
-        let max_step = (1..tr.len()).map(|i| (0..2).map(|j| (tr.position(i)[j] - tr.position(i - 1)[j]).powi(2)).sum::<f64>().sqrt()).fold(0.0, f64::max);
+        let max_step = (1..tr.len())
+            .map(|i| {
+                (0..2)
+                    .map(|j| (tr.position(i)[j] - tr.position(i - 1)[j]).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .fold(0.0, f64::max);
         assert!(max_step < 0.1, "{max_step}");
     }
 
     #[test]
     fn refinement_blends_the_new_demo_with_the_forgetting_factor() {
         let eta = 0.7;
-        let mut hmm = HmmPrimitive::fit(&[demo(1.0)], &HmmConfig { states: 6, forgetting: eta, ..Default::default() }).expect("fit");
-        let peak = |h: &HmmPrimitive| h.states.iter().map(|s| s.mean[0]).fold(f64::NEG_INFINITY, f64::max);
+        let mut hmm = HmmPrimitive::fit(
+            &[demo(1.0)],
+            &HmmConfig {
+                states: 6,
+                forgetting: eta,
+                ..Default::default()
+            },
+        )
+        .expect("fit");
+        let peak = |h: &HmmPrimitive| {
+            h.states
+                .iter()
+                .map(|s| s.mean[0])
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
         let before = peak(&hmm);
         hmm.refine(&demo(1.5)).expect("refine");
         let after = peak(&hmm);
         // The x amplitude of the states moves from ≈1.0 to ≈ η·1.5 + (1 − η)·1.0.
         let want = eta * 1.5 + (1.0 - eta) * before;
-        assert!((after - want).abs() < 0.1, "peak {before} -> {after}, expected ≈ {want}");
+        assert!(
+            (after - want).abs() < 0.1,
+            "peak {before} -> {after}, expected ≈ {want}"
+        );
         assert!(hmm.generate(None, 0.01).expect("gen").len() > 100);
     }
 }

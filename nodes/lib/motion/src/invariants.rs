@@ -31,10 +31,17 @@ fn derivative(u: &[Vector3<f64>], dt: f64) -> Vec<Vector3<f64>> {
 
 fn check(u: &[Vector3<f64>], dt: f64, what: &str) -> Result<()> {
     if u.len() < 3 {
-        return Err(MotionError::TooFewSamples { what: what.into(), needed: 3, got: u.len() });
+        return Err(MotionError::TooFewSamples {
+            what: what.into(),
+            needed: 3,
+            got: u.len(),
+        });
     }
     if let Some(i) = u.iter().position(|v| !v.iter().all(|x| x.is_finite())) {
-        return Err(MotionError::NotFinite { what: what.into(), index: i });
+        return Err(MotionError::NotFinite {
+            what: what.into(),
+            index: i,
+        });
     }
     if !(dt > 0.0) || !dt.is_finite() {
         return Err(crate::error::invalid("dt", "must be finite and > 0"));
@@ -52,9 +59,15 @@ pub fn unidirectional(v: &[Vector3<f64>], w: &[Vector3<f64>], dt: f64) -> Result
     let dw = derivative(w, dt);
     let f = |a: &Vector3<f64>, b: &Vector3<f64>| {
         let n2 = a.norm_squared();
-        if n2 > EPS { a.cross(b).norm() / n2 } else { 0.0 }
+        if n2 > EPS {
+            a.cross(b).norm() / n2
+        } else {
+            0.0
+        }
     };
-    Ok((0..v.len()).map(|t| [f(&v[t], &dv[t]), f(&w[t], &dw[t])]).collect())
+    Ok((0..v.len())
+        .map(|t| [f(&v[t], &dv[t]), f(&w[t], &dw[t])])
+        .collect())
 }
 
 /// EFS invariants of one vector signal and its initial Frenet–Serret frame.
@@ -77,14 +90,28 @@ pub fn efs_signal(u: &[Vector3<f64>], dt: f64) -> Result<EfsSignal> {
             let c = u[t].cross(&du[t]);
             let c2 = c.norm_squared();
             let e2 = if e1 > EPS { c.norm() / (e1 * e1) } else { 0.0 };
-            let e3 = if c2 > EPS { e1 * u[t].dot(&du[t].cross(&ddu[t])) / c2 } else { 0.0 };
+            let e3 = if c2 > EPS {
+                e1 * u[t].dot(&du[t].cross(&ddu[t])) / c2
+            } else {
+                0.0
+            };
             [e1, e2, e3]
         })
         .collect();
-    let t0 = if u[0].norm() > EPS { u[0].normalize() } else { Vector3::x() };
+    let t0 = if u[0].norm() > EPS {
+        u[0].normalize()
+    } else {
+        Vector3::x()
+    };
     let c0 = u[0].cross(&du[0]);
-    let b0 = if c0.norm() > EPS { c0.normalize() } else {
-        let a = if t0.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
+    let b0 = if c0.norm() > EPS {
+        c0.normalize()
+    } else {
+        let a = if t0.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
         t0.cross(&a).normalize()
     };
     let frame0 = Matrix3::from_columns(&[t0, b0.cross(&t0), b0]);
@@ -111,7 +138,11 @@ pub fn efs_reconstruct(s: &EfsSignal, dt: f64) -> Vec<Vector3<f64>> {
 /// clean invariants over the power of their point-wise difference (App. B.2.2).
 pub fn residual_snr_db(clean: &[f64], noisy: &[f64]) -> f64 {
     let ps: f64 = clean.iter().map(|v| v * v).sum();
-    let pr: f64 = clean.iter().zip(noisy).map(|(a, b)| (a - b) * (a - b)).sum();
+    let pr: f64 = clean
+        .iter()
+        .zip(noisy)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum();
     10.0 * (ps / pr.max(1e-300)).log10()
 }
 
@@ -122,8 +153,18 @@ mod tests {
     #[test]
     fn unidirectional_is_roto_scale_invariant() {
         let dt = 0.01;
-        let v: Vec<_> = (0..200).map(|i| { let t = i as f64 * dt; Vector3::new(t.cos(), (2.0 * t).sin(), 0.3 * t) }).collect();
-        let w: Vec<_> = (0..200).map(|i| { let t = i as f64 * dt; Vector3::new(0.2, t.sin(), 1.0) }).collect();
+        let v: Vec<_> = (0..200)
+            .map(|i| {
+                let t = i as f64 * dt;
+                Vector3::new(t.cos(), (2.0 * t).sin(), 0.3 * t)
+            })
+            .collect();
+        let w: Vec<_> = (0..200)
+            .map(|i| {
+                let t = i as f64 * dt;
+                Vector3::new(0.2, t.sin(), 1.0)
+            })
+            .collect();
         let a = unidirectional(&v, &w, dt).expect("inv");
         let r = Rotation3::from_euler_angles(0.3, -1.0, 2.0);
         let v2: Vec<_> = v.iter().map(|x| r * x * 3.5).collect();
@@ -138,12 +179,23 @@ mod tests {
     fn efs_of_a_helix_is_constant_and_reconstructs() {
         // v(t) of a helix: constant speed, curvature and torsion.
         let dt = 0.001;
-        let v: Vec<_> = (0..2000).map(|i| { let t = i as f64 * dt; Vector3::new(-t.sin(), t.cos(), 0.5) }).collect();
+        let v: Vec<_> = (0..2000)
+            .map(|i| {
+                let t = i as f64 * dt;
+                Vector3::new(-t.sin(), t.cos(), 0.5)
+            })
+            .collect();
         let s = efs_signal(&v, dt).expect("efs");
         let mid = s.rows[1000];
         assert!((mid[0] - 1.25f64.sqrt()).abs() < 1e-9);
         let back = efs_reconstruct(&s, dt);
-        let rmse = (back.iter().zip(&v).map(|(a, b)| (a - b).norm_squared()).sum::<f64>() / v.len() as f64).sqrt();
+        let rmse = (back
+            .iter()
+            .zip(&v)
+            .map(|(a, b)| (a - b).norm_squared())
+            .sum::<f64>()
+            / v.len() as f64)
+            .sqrt();
         assert!(rmse < 1e-2, "{rmse}");
     }
 }

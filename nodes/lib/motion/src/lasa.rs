@@ -49,7 +49,21 @@ pub struct LasaOptions {
 
 impl Default for LasaOptions {
     fn default() -> Self {
-        Self { subsample: 20, k_max: 10, dt: 0.002, random_starts: 100, tol: 1.0, max_time_factor: 10.0, seed: 0, cgmr: CgmrConfig::default(), em: EmConfig { tol: 1e-3, max_iter: 100, ..EmConfig::default() } }
+        Self {
+            subsample: 20,
+            k_max: 10,
+            dt: 0.002,
+            random_starts: 100,
+            tol: 1.0,
+            max_time_factor: 10.0,
+            seed: 0,
+            cgmr: CgmrConfig::default(),
+            em: EmConfig {
+                tol: 1e-3,
+                max_iter: 100,
+                ..EmConfig::default()
+            },
+        }
     }
 }
 
@@ -87,7 +101,10 @@ pub struct MotionRow {
 
 /// Motion folders under `root` (sorted by name), each with `demo_*.csv` files.
 pub fn list_motions(root: &Path) -> Result<Vec<(String, PathBuf)>> {
-    let rd = std::fs::read_dir(root).map_err(|source| MotionError::Io { file: root.to_path_buf(), source })?;
+    let rd = std::fs::read_dir(root).map_err(|source| MotionError::Io {
+        file: root.to_path_buf(),
+        source,
+    })?;
     let mut out: Vec<(String, PathBuf)> = rd
         .filter_map(|e| e.ok())
         .filter(|e| e.path().is_dir())
@@ -99,15 +116,26 @@ pub fn list_motions(root: &Path) -> Result<Vec<(String, PathBuf)>> {
 
 /// The demonstrations `demo_*.csv` of one motion folder, in name order.
 pub fn load_motion(dir: &Path) -> Result<Vec<Demonstration>> {
-    let rd = std::fs::read_dir(dir).map_err(|source| MotionError::Io { file: dir.to_path_buf(), source })?;
+    let rd = std::fs::read_dir(dir).map_err(|source| MotionError::Io {
+        file: dir.to_path_buf(),
+        source,
+    })?;
     let mut files: Vec<PathBuf> = rd
         .filter_map(|e| e.ok())
         .map(|e| e.path())
-        .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("demo_")) && p.extension().is_some_and(|e| e == "csv"))
+        .filter(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("demo_"))
+                && p.extension().is_some_and(|e| e == "csv")
+        })
         .collect();
     files.sort();
     if files.is_empty() {
-        return Err(MotionError::TooFewSamples { what: format!("demo_*.csv files in {}", dir.display()), needed: 1, got: 0 });
+        return Err(MotionError::TooFewSamples {
+            what: format!("demo_*.csv files in {}", dir.display()),
+            needed: 1,
+            got: 0,
+        });
     }
     files.iter().map(|f| read_demonstration(f)).collect()
 }
@@ -126,7 +154,11 @@ pub fn velocity_rmse(demos: &[Demonstration], f: &mut Field<'_>) -> Result<f64> 
         let mut v = vec![0.0; d.dim];
         for i in 0..d.len() {
             f(d.position(i), &mut v)?;
-            se += v.iter().zip(d.velocity(i)).map(|(a, b)| (a - b) * (a - b)).sum::<f64>();
+            se += v
+                .iter()
+                .zip(d.velocity(i))
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f64>();
             count += 1;
         }
     }
@@ -139,7 +171,11 @@ fn median(v: &mut [f64]) -> f64 {
     }
     v.sort_by(f64::total_cmp);
     let n = v.len();
-    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 /// Median of a column of values (NaN-free).
@@ -161,10 +197,14 @@ fn random_starts(demos: &[Demonstration], n: usize, seed: u64) -> Vec<Vec<f64>> 
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..n)
-        .map(|_| (0..dim).map(|j| {
-            let w = hi[j] - lo[j];
-            lo[j] - 0.5 * w + rng.random::<f64>() * 2.0 * w
-        }).collect())
+        .map(|_| {
+            (0..dim)
+                .map(|j| {
+                    let w = hi[j] - lo[j];
+                    lo[j] - 0.5 * w + rng.random::<f64>() * 2.0 * w
+                })
+                .collect()
+        })
         .collect()
 }
 
@@ -184,8 +224,15 @@ fn evaluate_policy<'m>(
     opts: &LasaOptions,
     starts: &[Vec<f64>],
 ) -> Result<Accuracy> {
-    let longest = demos.iter().map(Demonstration::duration).fold(0.0, f64::max);
-    let cfg = RolloutConfig { dt: opts.dt, max_steps: (opts.max_time_factor * longest / opts.dt).ceil() as usize, tol: opts.tol };
+    let longest = demos
+        .iter()
+        .map(Demonstration::duration)
+        .fold(0.0, f64::max);
+    let cfg = RolloutConfig {
+        dt: opts.dt,
+        max_steps: (opts.max_time_factor * longest / opts.dt).ceil() as usize,
+        tol: opts.tol,
+    };
     let mut repro = Vec::new();
     let mut reached = 0usize;
     for d in demos {
@@ -200,13 +247,29 @@ fn evaluate_policy<'m>(
         let tr = rollout(make()?.as_mut(), s, &cfg)?;
         ok += usize::from(tr.reached);
     }
-    let random_reached = if starts.is_empty() { f64::NAN } else { ok as f64 / starts.len() as f64 };
-    Ok(Accuracy { area, v_e, demo_reached: reached as f64 / demos.len() as f64, random_reached })
+    let random_reached = if starts.is_empty() {
+        f64::NAN
+    } else {
+        ok as f64 / starts.len() as f64
+    };
+    Ok(Accuracy {
+        area,
+        v_e,
+        demo_reached: reached as f64 / demos.len() as f64,
+        random_reached,
+    })
 }
 
 /// Trains and evaluates GMR and C-GMR on one motion.
-pub fn evaluate_motion(name: &str, demos: &[Demonstration], opts: &LasaOptions) -> Result<MotionRow> {
-    let em = EmConfig { seed: opts.seed, ..opts.em.clone() };
+pub fn evaluate_motion(
+    name: &str,
+    demos: &[Demonstration],
+    opts: &LasaOptions,
+) -> Result<MotionRow> {
+    let em = EmConfig {
+        seed: opts.seed,
+        ..opts.em.clone()
+    };
     let t0 = Instant::now();
     let (ds, sel) = fit_gmr_ds(demos, Components::Bic(opts.k_max), &em, opts.subsample)?;
     let train_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -223,7 +286,12 @@ pub fn evaluate_motion(name: &str, demos: &[Demonstration], opts: &LasaOptions) 
     let goal = ds.target.clone();
     let gmr = evaluate_policy(
         demos,
-        &mut || Ok(Box::new(Autonomous { ds: &ds, goal: goal.clone() }) as Box<dyn DsPolicy + '_>),
+        &mut || {
+            Ok(Box::new(Autonomous {
+                ds: &ds,
+                goal: goal.clone(),
+            }) as Box<dyn DsPolicy + '_>)
+        },
         &mut |x, v| ds.velocity(x, v),
         opts,
         &starts,
@@ -240,7 +308,15 @@ pub fn evaluate_motion(name: &str, demos: &[Demonstration], opts: &LasaOptions) 
         opts,
         &starts,
     )?;
-    Ok(MotionRow { name: name.to_string(), k, train_ms, train_fixed_k_ms, cgmr_extra_ms, gmr, cgmr: c })
+    Ok(MotionRow {
+        name: name.to_string(),
+        k,
+        train_ms,
+        train_fixed_k_ms,
+        cgmr_extra_ms,
+        gmr,
+        cgmr: c,
+    })
 }
 
 /// Figures of an external GMM/GMR implementation on one motion (e.g. scikit-learn + `gmr`),
@@ -261,7 +337,12 @@ pub struct ExternalRow {
 /// Reads an external result folder for one motion (`fit.csv` with header `k,fit_ms`).
 pub fn evaluate_external(demos: &[Demonstration], dir: &Path) -> Result<ExternalRow> {
     let fit = crate::csv_io::read_table(&dir.join("fit.csv"))?;
-    let row = fit.rows.first().ok_or_else(|| MotionError::Csv { file: dir.join("fit.csv"), row: 2, column: "k".into(), reason: "no data row".into() })?;
+    let row = fit.rows.first().ok_or_else(|| MotionError::Csv {
+        file: dir.join("fit.csv"),
+        row: 2,
+        column: "k".into(),
+        reason: "no data row".into(),
+    })?;
     let mut repro = Vec::new();
     for i in 0..demos.len() {
         repro.push(read_demonstration(&dir.join(format!("repro_{i}.csv")))?.pos);
@@ -277,11 +358,20 @@ pub fn evaluate_external(demos: &[Demonstration], dir: &Path) -> Result<External
         idx += out.len();
         Ok(())
     })?;
-    Ok(ExternalRow { k: row[0] as usize, fit_ms: row[1], area, v_e })
+    Ok(ExternalRow {
+        k: row[0] as usize,
+        fit_ms: row[1],
+        area,
+        v_e,
+    })
 }
 
 fn pct(v: f64) -> String {
-    if v.is_nan() { "-".into() } else { format!("{:.0}%", 100.0 * v) }
+    if v.is_nan() {
+        "-".into()
+    } else {
+        format!("{:.0}%", 100.0 * v)
+    }
 }
 
 /// The LASA table: one line per motion plus the medians; `external` adds the scikit-learn + gmr
@@ -292,23 +382,60 @@ pub fn format_table(rows: &[MotionRow], external: Option<&[ExternalRow]>) -> Str
     let _ = write!(
         s,
         "{:<18} {:>2} {:>8} {:>8} {:>7} | {:>9} {:>7} {:>5} {:>5} | {:>9} {:>7} {:>5} {:>5}",
-        "motion", "K", "EM+BIC", "EM@K", "C-GMR+", "GMR area", "GMR Ve", "demo", "rand", "CGMR area", "CGMR Ve", "demo", "rand"
+        "motion",
+        "K",
+        "EM+BIC",
+        "EM@K",
+        "C-GMR+",
+        "GMR area",
+        "GMR Ve",
+        "demo",
+        "rand",
+        "CGMR area",
+        "CGMR Ve",
+        "demo",
+        "rand"
     );
     if external.is_some() {
-        let _ = write!(s, " | {:>8} {:>9} {:>7} {:>7}", "skl fit", "skl area", "skl Ve", "t ratio");
+        let _ = write!(
+            s,
+            " | {:>8} {:>9} {:>7} {:>7}",
+            "skl fit", "skl area", "skl Ve", "t ratio"
+        );
     }
     s.push('\n');
-    let _ = writeln!(s, "{:<18} {:>2} {:>8} {:>8} {:>7} |", "", "", "ms", "ms", "ms");
+    let _ = writeln!(
+        s,
+        "{:<18} {:>2} {:>8} {:>8} {:>7} |",
+        "", "", "ms", "ms", "ms"
+    );
     for (i, r) in rows.iter().enumerate() {
         let _ = write!(
             s,
             "{:<18} {:>2} {:>8.2} {:>8.2} {:>7.3} | {:>9.1} {:>7.2} {:>5} {:>5} | {:>9.1} {:>7.2} {:>5} {:>5}",
-            r.name, r.k, r.train_ms, r.train_fixed_k_ms, r.cgmr_extra_ms,
-            r.gmr.area, r.gmr.v_e, pct(r.gmr.demo_reached), pct(r.gmr.random_reached),
-            r.cgmr.area, r.cgmr.v_e, pct(r.cgmr.demo_reached), pct(r.cgmr.random_reached)
+            r.name,
+            r.k,
+            r.train_ms,
+            r.train_fixed_k_ms,
+            r.cgmr_extra_ms,
+            r.gmr.area,
+            r.gmr.v_e,
+            pct(r.gmr.demo_reached),
+            pct(r.gmr.random_reached),
+            r.cgmr.area,
+            r.cgmr.v_e,
+            pct(r.cgmr.demo_reached),
+            pct(r.cgmr.random_reached)
         );
         if let Some(e) = external.and_then(|e| e.get(i)) {
-            let _ = write!(s, " | {:>8.2} {:>9.1} {:>7.2} {:>7.1}", e.fit_ms, e.area, e.v_e, e.fit_ms / r.train_fixed_k_ms);
+            let _ = write!(
+                s,
+                " | {:>8.2} {:>9.1} {:>7.2} {:>7.1}",
+                e.fit_ms,
+                e.area,
+                e.v_e,
+                e.fit_ms / r.train_fixed_k_ms
+            );
         }
         s.push('\n');
     }
@@ -316,18 +443,47 @@ pub fn format_table(rows: &[MotionRow], external: Option<&[ExternalRow]>) -> Str
     let _ = write!(
         s,
         "{:<18} {:>2} {:>8.2} {:>8.2} {:>7.3} | {:>9.1} {:>7.2} {:>5} {:>5} | {:>9.1} {:>7.2} {:>5} {:>5}",
-        "MEDIAN", "", med(&|r| r.train_ms), med(&|r| r.train_fixed_k_ms), med(&|r| r.cgmr_extra_ms),
-        med(&|r| r.gmr.area), med(&|r| r.gmr.v_e), pct(med(&|r| r.gmr.demo_reached)), pct(med(&|r| r.gmr.random_reached)),
-        med(&|r| r.cgmr.area), med(&|r| r.cgmr.v_e), pct(med(&|r| r.cgmr.demo_reached)), pct(med(&|r| r.cgmr.random_reached))
+        "MEDIAN",
+        "",
+        med(&|r| r.train_ms),
+        med(&|r| r.train_fixed_k_ms),
+        med(&|r| r.cgmr_extra_ms),
+        med(&|r| r.gmr.area),
+        med(&|r| r.gmr.v_e),
+        pct(med(&|r| r.gmr.demo_reached)),
+        pct(med(&|r| r.gmr.random_reached)),
+        med(&|r| r.cgmr.area),
+        med(&|r| r.cgmr.v_e),
+        pct(med(&|r| r.cgmr.demo_reached)),
+        pct(med(&|r| r.cgmr.random_reached))
     );
     if let Some(e) = external {
         let m = |f: &dyn Fn(&ExternalRow) -> f64| median_of(e.iter().map(f).collect());
-        let ratio = median_of(e.iter().zip(rows).map(|(e, r)| e.fit_ms / r.train_fixed_k_ms).collect());
-        let _ = write!(s, " | {:>8.2} {:>9.1} {:>7.2} {:>7.1}", m(&|e| e.fit_ms), m(&|e| e.area), m(&|e| e.v_e), ratio);
+        let ratio = median_of(
+            e.iter()
+                .zip(rows)
+                .map(|(e, r)| e.fit_ms / r.train_fixed_k_ms)
+                .collect(),
+        );
+        let _ = write!(
+            s,
+            " | {:>8.2} {:>9.1} {:>7.2} {:>7.1}",
+            m(&|e| e.fit_ms),
+            m(&|e| e.area),
+            m(&|e| e.v_e),
+            ratio
+        );
     }
     s.push('\n');
-    let mean_rand = rows.iter().map(|r| r.cgmr.random_reached).sum::<f64>() / rows.len().max(1) as f64;
-    let mean_rand_gmr = rows.iter().map(|r| r.gmr.random_reached).sum::<f64>() / rows.len().max(1) as f64;
-    let _ = writeln!(s, "random starts reaching the target, mean over motions: GMR {}, C-GMR {}", pct(mean_rand_gmr), pct(mean_rand));
+    let mean_rand =
+        rows.iter().map(|r| r.cgmr.random_reached).sum::<f64>() / rows.len().max(1) as f64;
+    let mean_rand_gmr =
+        rows.iter().map(|r| r.gmr.random_reached).sum::<f64>() / rows.len().max(1) as f64;
+    let _ = writeln!(
+        s,
+        "random starts reaching the target, mean over motions: GMR {}, C-GMR {}",
+        pct(mean_rand_gmr),
+        pct(mean_rand)
+    );
     s
 }

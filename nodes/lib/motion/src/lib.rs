@@ -19,6 +19,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod cgmr;
+pub mod csv_io;
 pub mod demo;
 pub mod dhb;
 pub mod dmp;
@@ -30,9 +31,8 @@ pub mod gmr;
 pub mod hmm;
 pub mod invariants;
 pub mod lasa;
-pub mod model;
-pub mod csv_io;
 mod linalg;
+pub mod model;
 
 pub use cgmr::{Cgmr, CgmrConfig, CgmrRunner, Components, Region, mu1, stabilizing_gains};
 pub use demo::Demonstration;

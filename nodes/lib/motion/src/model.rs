@@ -36,7 +36,10 @@ impl std::str::FromStr for ModelKind {
             "gmr" => Ok(Self::Gmr),
             "cgmr" => Ok(Self::Cgmr),
             "hmm" => Ok(Self::Hmm),
-            other => Err(invalid("model", format!("unknown kind `{other}` (expected dmp, gmr, cgmr or hmm)"))),
+            other => Err(invalid(
+                "model",
+                format!("unknown kind `{other}` (expected dmp, gmr, cgmr or hmm)"),
+            )),
         }
     }
 }
@@ -93,12 +96,26 @@ impl Model {
         Ok(match kind {
             ModelKind::Dmp => {
                 if demos.len() != 1 {
-                    return Err(invalid("demos", format!("a DMP learns from exactly one demonstration, got {}", demos.len())));
+                    return Err(invalid(
+                        "demos",
+                        format!(
+                            "a DMP learns from exactly one demonstration, got {}",
+                            demos.len()
+                        ),
+                    ));
                 }
                 Self::Dmp(Dmp::fit(&demos[0], &opts.dmp)?)
             }
-            ModelKind::Gmr => Self::Gmr(fit_gmr_ds(demos, opts.components, &opts.em, opts.subsample.max(1))?.0),
-            ModelKind::Cgmr => Self::Cgmr(Cgmr::fit(demos, opts.components, &opts.em, opts.subsample.max(1), &opts.cgmr)?),
+            ModelKind::Gmr => {
+                Self::Gmr(fit_gmr_ds(demos, opts.components, &opts.em, opts.subsample.max(1))?.0)
+            }
+            ModelKind::Cgmr => Self::Cgmr(Cgmr::fit(
+                demos,
+                opts.components,
+                &opts.em,
+                opts.subsample.max(1),
+                &opts.cgmr,
+            )?),
             ModelKind::Hmm => Self::Hmm(HmmPrimitive::fit(demos, &opts.hmm)?),
         })
     }
@@ -127,7 +144,12 @@ impl Model {
     /// integrated with explicit Euler until within `tol`; a DMP runs its duration then until
     /// within `tol`; an HMM generates its learned duration at the step `dt` and is translated to
     /// start at `start` (the goal is then ignored).
-    pub fn rollout(&self, start: &[f64], goal: Option<&[f64]>, cfg: &RolloutConfig) -> Result<Trajectory> {
+    pub fn rollout(
+        &self,
+        start: &[f64],
+        goal: Option<&[f64]>,
+        cfg: &RolloutConfig,
+    ) -> Result<Trajectory> {
         cfg.validate()?;
         check_dim("start", self.dim(), start.len())?;
         if let Some(g) = goal {
@@ -137,10 +159,27 @@ impl Model {
             Self::Dmp(m) => m.rollout(Some(start), goal, 1.0, cfg.dt, cfg.max_steps, cfg.tol),
             Self::Gmr(m) => {
                 if let Some(g) = goal {
-                    let moved = GmrDs { gmr: m.gmr.clone(), target: g.to_vec() };
-                    rollout(&mut Autonomous { ds: &moved, goal: g.to_vec() }, start, cfg)
+                    let moved = GmrDs {
+                        gmr: m.gmr.clone(),
+                        target: g.to_vec(),
+                    };
+                    rollout(
+                        &mut Autonomous {
+                            ds: &moved,
+                            goal: g.to_vec(),
+                        },
+                        start,
+                        cfg,
+                    )
                 } else {
-                    rollout(&mut Autonomous { ds: m, goal: m.target.clone() }, start, cfg)
+                    rollout(
+                        &mut Autonomous {
+                            ds: m,
+                            goal: m.target.clone(),
+                        },
+                        start,
+                        cfg,
+                    )
                 }
             }
             Self::Cgmr(m) => rollout(&mut m.runner(goal)?, start, cfg),
@@ -154,7 +193,11 @@ impl Model {
     pub fn eval(&self, points: &[f64]) -> Result<Vec<f64>> {
         let n = self.dim();
         if !points.len().is_multiple_of(n) {
-            return Err(MotionError::DimensionMismatch { what: "points vs model dimension".into(), expected: n, got: points.len() % n });
+            return Err(MotionError::DimensionMismatch {
+                what: "points vs model dimension".into(),
+                expected: n,
+                got: points.len() % n,
+            });
         }
         let mut out = vec![0.0; points.len()];
         match self {
@@ -172,24 +215,51 @@ impl Model {
                     }
                 }
             }
-            Self::Dmp(_) => return Err(MotionError::Unsupported { kind: "dmp", operation: "eval (no autonomous velocity field)" }),
-            Self::Hmm(_) => return Err(MotionError::Unsupported { kind: "hmm", operation: "eval (no autonomous velocity field)" }),
+            Self::Dmp(_) => {
+                return Err(MotionError::Unsupported {
+                    kind: "dmp",
+                    operation: "eval (no autonomous velocity field)",
+                });
+            }
+            Self::Hmm(_) => {
+                return Err(MotionError::Unsupported {
+                    kind: "hmm",
+                    operation: "eval (no autonomous velocity field)",
+                });
+            }
         }
         Ok(out)
     }
 
     /// Writes the model as JSON, atomically (temporary file + rename).
     pub fn save(&self, path: &Path) -> Result<()> {
-        let text = serde_json::to_string_pretty(self).map_err(|e| MotionError::Io { file: path.to_path_buf(), source: std::io::Error::other(e) })?;
+        let text = serde_json::to_string_pretty(self).map_err(|e| MotionError::Io {
+            file: path.to_path_buf(),
+            source: std::io::Error::other(e),
+        })?;
         let tmp = path.with_extension("tmp-write");
-        std::fs::write(&tmp, text).map_err(|source| MotionError::Io { file: tmp.clone(), source })?;
-        std::fs::rename(&tmp, path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })
+        std::fs::write(&tmp, text).map_err(|source| MotionError::Io {
+            file: tmp.clone(),
+            source,
+        })?;
+        std::fs::rename(&tmp, path).map_err(|source| MotionError::Io {
+            file: path.to_path_buf(),
+            source,
+        })
     }
 
     /// Reads a model written by [`Model::save`]; derived terms are rebuilt and validated.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|source| MotionError::Io { file: path.to_path_buf(), source })?;
-        serde_json::from_str(&text).map_err(|e| MotionError::Csv { file: path.to_path_buf(), row: e.line(), column: e.column().to_string(), reason: format!("invalid model JSON: {e}") })
+        let text = std::fs::read_to_string(path).map_err(|source| MotionError::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        serde_json::from_str(&text).map_err(|e| MotionError::Csv {
+            file: path.to_path_buf(),
+            row: e.line(),
+            column: e.column().to_string(),
+            reason: format!("invalid model JSON: {e}"),
+        })
     }
 }
 
@@ -199,36 +269,86 @@ mod tests {
 
     fn line(dim: usize, n: usize) -> Demonstration {
         let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
-        let pos = t.iter().flat_map(|t| (0..dim).map(move |j| (1.0 - t) * (j + 1) as f64)).collect();
+        let pos = t
+            .iter()
+            .flat_map(|t| (0..dim).map(move |j| (1.0 - t) * (j + 1) as f64))
+            .collect();
         Demonstration::new(dim, t, pos, None).expect("demo")
     }
 
     #[test]
     fn mismatched_dimensions_and_wrong_kinds_are_errors() {
-        let r = Model::fit(ModelKind::Gmr, &[line(2, 50), line(3, 50)], &FitOptions::default());
-        assert!(matches!(r, Err(MotionError::DimensionMismatch { .. })), "{r:?}");
-        let opts = FitOptions { components: Components::Fixed(2), ..FitOptions::default() };
+        let r = Model::fit(
+            ModelKind::Gmr,
+            &[line(2, 50), line(3, 50)],
+            &FitOptions::default(),
+        );
+        assert!(
+            matches!(r, Err(MotionError::DimensionMismatch { .. })),
+            "{r:?}"
+        );
+        let opts = FitOptions {
+            components: Components::Fixed(2),
+            ..FitOptions::default()
+        };
         let m = Model::fit(ModelKind::Cgmr, &[line(2, 50)], &opts).expect("fit");
-        assert!(m.rollout(&[1.0], None, &RolloutConfig { dt: 0.01, max_steps: 10, tol: 0.0 }).is_err());
+        assert!(
+            m.rollout(
+                &[1.0],
+                None,
+                &RolloutConfig {
+                    dt: 0.01,
+                    max_steps: 10,
+                    tol: 0.0
+                }
+            )
+            .is_err()
+        );
         assert!(m.eval(&[1.0, 2.0, 3.0]).is_err());
         let dmp = Model::fit(ModelKind::Dmp, &[line(2, 50)], &FitOptions::default()).expect("dmp");
-        assert!(matches!(dmp.eval(&[0.0, 0.0]), Err(MotionError::Unsupported { .. })));
+        assert!(matches!(
+            dmp.eval(&[0.0, 0.0]),
+            Err(MotionError::Unsupported { .. })
+        ));
     }
 
     #[test]
     fn every_kind_round_trips_through_json() {
         let dir = std::env::temp_dir().join(format!("cowork_motion_model_{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
-        let opts = FitOptions { components: Components::Fixed(2), hmm: HmmConfig { states: 4, ..HmmConfig::default() }, ..FitOptions::default() };
-        for kind in [ModelKind::Dmp, ModelKind::Gmr, ModelKind::Cgmr, ModelKind::Hmm] {
+        let opts = FitOptions {
+            components: Components::Fixed(2),
+            hmm: HmmConfig {
+                states: 4,
+                ..HmmConfig::default()
+            },
+            ..FitOptions::default()
+        };
+        for kind in [
+            ModelKind::Dmp,
+            ModelKind::Gmr,
+            ModelKind::Cgmr,
+            ModelKind::Hmm,
+        ] {
             let m = Model::fit(kind, &[line(2, 60)], &opts).expect("fit");
             let p = dir.join(format!("{}.json", m.kind()));
             m.save(&p).expect("save");
             let back = Model::load(&p).expect("load");
-            let cfg = RolloutConfig { dt: 0.01, max_steps: 2000, tol: 1e-3 };
-            let (a, b) = (m.rollout(&[1.0, 2.0], None, &cfg).expect("a"), back.rollout(&[1.0, 2.0], None, &cfg).expect("b"));
+            let cfg = RolloutConfig {
+                dt: 0.01,
+                max_steps: 2000,
+                tol: 1e-3,
+            };
+            let (a, b) = (
+                m.rollout(&[1.0, 2.0], None, &cfg).expect("a"),
+                back.rollout(&[1.0, 2.0], None, &cfg).expect("b"),
+            );
             // Exact: serde_json's float_roundtrip keeps every bit.
-            assert!(a.pos == b.pos && a.vel == b.vel && a.t == b.t, "{} differs after reload", m.kind());
+            assert!(
+                a.pos == b.pos && a.vel == b.vel && a.t == b.t,
+                "{} differs after reload",
+                m.kind()
+            );
         }
         std::fs::write(dir.join("bad.json"), "{\"kind\": \"gmr\", \"gmr\": 3}").expect("w");
         assert!(Model::load(&dir.join("bad.json")).is_err());

@@ -30,9 +30,22 @@ static GLOBAL: Counting = Counting;
 #[test]
 fn evaluation_paths_do_not_allocate() {
     let t: Vec<f64> = (0..200).map(|i| i as f64 * 0.01).collect();
-    let pos = t.iter().flat_map(|t| { let s = 1.0 - t / 1.99; [3.0 * s * (2.0 * t).cos(), 3.0 * s * (2.0 * t).sin()] }).collect();
+    let pos = t
+        .iter()
+        .flat_map(|t| {
+            let s = 1.0 - t / 1.99;
+            [3.0 * s * (2.0 * t).cos(), 3.0 * s * (2.0 * t).sin()]
+        })
+        .collect();
     let demo = Demonstration::new(2, t, pos, None).expect("demo");
-    let m = Cgmr::fit(&[demo], Components::Fixed(6), &EmConfig::default(), 1, &CgmrConfig::default()).expect("fit");
+    let m = Cgmr::fit(
+        &[demo],
+        Components::Fixed(6),
+        &EmConfig::default(),
+        1,
+        &CgmrConfig::default(),
+    )
+    .expect("fit");
     let mut runner = m.runner(None).expect("runner");
     runner.reset(&[1.0, 1.0]).expect("reset");
     let mut v = [0.0; 2];
@@ -46,5 +59,10 @@ fn evaluation_paths_do_not_allocate() {
         x[1] += 0.001 * v[1];
     }
     let after = ALLOCS.load(Ordering::Relaxed);
-    assert_eq!(after - before, 0, "{} allocations in 1000 steps", after - before);
+    assert_eq!(
+        after - before,
+        0,
+        "{} allocations in 1000 steps",
+        after - before
+    );
 }

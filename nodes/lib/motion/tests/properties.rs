@@ -1,7 +1,9 @@
 //! Property tests of the issue: Algorithm 1 makes µ₁(A + U) < 0 for random A; C-GMR converges
 //! from random starts for random (stable and unstable) mixtures.
 
-use cowork_motion::{Cgmr, CgmrConfig, DsPolicy, Gmm, GmrDs, RolloutConfig, mu1, rollout, stabilizing_gains};
+use cowork_motion::{
+    Cgmr, CgmrConfig, DsPolicy, Gmm, GmrDs, RolloutConfig, mu1, rollout, stabilizing_gains,
+};
 use proptest::prelude::*;
 
 proptest! {
@@ -36,12 +38,18 @@ fn random_gmm(k: usize, params: &[f64]) -> Gmm {
         let mut s = vec![0.0; 16];
         for i in 0..4 {
             for j in 0..4 {
-                s[i * 4 + j] = (0..4).map(|m| l[i][m] * l[j][m]).sum::<f64>() + if i == j { 0.1 } else { 0.0 };
+                s[i * 4 + j] =
+                    (0..4).map(|m| l[i][m] * l[j][m]).sum::<f64>() + if i == j { 0.1 } else { 0.0 };
             }
         }
         covs.push(s);
     }
-    Gmm { dim: 4, priors: vec![1.0 / k as f64; k], means, covariances: covs }
+    Gmm {
+        dim: 4,
+        priors: vec![1.0 / k as f64; k],
+        means,
+        covariances: covs,
+    }
 }
 
 proptest! {
