@@ -1,0 +1,76 @@
+//! Median time of one `DsController::step` on the LWR with obstacles near the end effector and
+//! a link (modulation, escape check, null-space task, saturation all active).
+
+use cowork_ds::primitive::ConstantSpeed;
+use cowork_ds::{
+    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, HumanInput,
+    HumanState, LinkDistance, MotionCommand, Primitive,
+};
+use cowork_robot::{JointVector, RobotModel};
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::{Point3, Vector3};
+use std::hint::black_box;
+use std::path::PathBuf;
+
+fn input(model: &RobotModel) -> ControlInput {
+    let mut distances = Distances::clear(0.0);
+    distances.count = model.link_count();
+    let tip = model.tip_link();
+    distances.links[tip] = LinkDistance {
+        valid: true,
+        distance: 0.08,
+        robot_point: Point3::new(0.4, 0.0, 0.5),
+        obstacle_point: Point3::new(0.48, 0.0, 0.5),
+        normal: Vector3::new(-1.0, 0.0, 0.0),
+        obstacle_velocity: Vector3::new(0.0, 0.3, 0.0),
+    };
+    distances.links[4] = LinkDistance {
+        valid: true,
+        distance: 0.12,
+        robot_point: Point3::new(0.1, 0.05, 0.6),
+        obstacle_point: Point3::new(0.1, 0.17, 0.6),
+        normal: Vector3::new(0.0, -1.0, 0.0),
+        obstacle_velocity: Vector3::zeros(),
+    };
+    ControlInput {
+        time: 0.0,
+        q: JointVector::from_row_slice(&[0.1, 0.5, 0.0, -1.2, 0.0, 0.6, 0.0]),
+        command: MotionCommand {
+            id: 1,
+            primitive: Primitive::ConstantSpeed(ConstantSpeed::new(0.3)),
+            goal: Vector3::new(0.5, 0.3, 0.4),
+            orientation: None,
+            end_effector_avoidance: true,
+        },
+        distances,
+        human: HumanInput {
+            stamp: 0.0,
+            state: HumanState::default(),
+        },
+    }
+}
+
+fn bench(c: &mut Criterion) {
+    let urdf = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf");
+    let model = RobotModel::from_urdf_file(urdf).expect("LWR URDF loads");
+    let input = input(&model);
+    let mut ctl = DsController::new(model, ControllerConfig::default()).expect("default config");
+    let mut out = ControlOutput::default();
+    c.bench_function("ds_step_obstacles", |b| {
+        b.iter(|| {
+            ctl.step(black_box(&input), &mut out).expect("valid input");
+            black_box(&out);
+        })
+    });
+    let mut free = input;
+    free.distances = Distances::clear(0.0);
+    c.bench_function("ds_step_free", |b| {
+        b.iter(|| {
+            ctl.step(black_box(&free), &mut out).expect("valid input");
+            black_box(&out);
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,631 @@
+//! The 1 kHz DS controller: ẋ = α_h M(x) f(x − g) (+ moving obstacles, escape), multi-priority
+//! IK with null-space link avoidance, saturation, and the stale-input watchdog.
+
+use crate::error::{Error, Fault, Result, Stream};
+use crate::goal::{Reach, adapted_velocity};
+use crate::ik::{Ik, IkConfig, IkReport, LinkTask, Saturation, orientation_error, saturate};
+use crate::modulation::{
+    EPSILON, Escape, EscapeConfig, modulate, modulation_matrix_in_basis, orthonormal_basis,
+};
+use crate::primitive::Primitive;
+use crate::scaling::{HumanState, ScalingConfig};
+use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
+use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
+
+/// Parameters of DS modulation (eq. 5.6).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ModulationConfig {
+    /// ε of eq. 5.6, in (0, 1).
+    pub epsilon: f64,
+    /// Modulate the end-effector DS with its closest obstacle.
+    pub end_effector: bool,
+    /// Null-space avoidance of the closest non end-effector link point.
+    pub links: bool,
+}
+
+impl Default for ModulationConfig {
+    fn default() -> Self {
+        Self {
+            epsilon: EPSILON,
+            end_effector: true,
+            links: true,
+        }
+    }
+}
+
+/// Configuration of [`DsController`]; defaults are the thesis values (Sec. 5.1.1, 5.1.3).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ControllerConfig {
+    /// Control period dt (s): 1 ms (1 kHz).
+    pub period_s: f64,
+    /// Distance or human data older than this stop the robot (s).
+    pub stale_after_s: f64,
+    /// Joint deceleration while braking to a hold (rad/s²), > 0.
+    pub brake_deceleration: f64,
+    /// After a hold, the Cartesian command ramps from 0 to full over this time (s), ≥ 0.
+    pub resume_time_s: f64,
+    /// The motion counts as converged within this end-effector distance of the goal (m).
+    pub goal_tolerance_m: f64,
+    /// … and, for a driven orientation, within this angle of it (rad).
+    pub orientation_tolerance_rad: f64,
+    /// Reject goals beyond the arm's reach bound.
+    pub check_reach: bool,
+    /// Velocity scaling speeds (eq. 5.3).
+    pub scaling: ScalingConfig,
+    /// DS modulation (eq. 5.6).
+    pub modulation: ModulationConfig,
+    /// Escape from spurious attractors (Algorithm 5).
+    pub escape: EscapeConfig,
+    /// IK and saturation.
+    pub ik: IkConfig,
+}
+
+impl Default for ControllerConfig {
+    fn default() -> Self {
+        Self {
+            period_s: 0.001,
+            stale_after_s: 0.1,
+            brake_deceleration: 10.0,
+            resume_time_s: 0.2,
+            goal_tolerance_m: 0.005,
+            orientation_tolerance_rad: 0.02,
+            check_reach: true,
+            scaling: ScalingConfig::default(),
+            modulation: ModulationConfig::default(),
+            escape: EscapeConfig::default(),
+            ik: IkConfig::default(),
+        }
+    }
+}
+
+fn check(field: &'static str, value: f64, ok: bool, reason: &'static str) -> Result<()> {
+    if value.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(Error::Config {
+            field,
+            value,
+            reason,
+        })
+    }
+}
+
+impl ControllerConfig {
+    /// Rejects NaN, infinite and out-of-range values, naming the field.
+    pub fn validate(&self) -> Result<()> {
+        let c = self;
+        check("period_s", c.period_s, c.period_s > 0.0 && c.period_s <= 0.1, "must be in (0, 0.1] s")?;
+        check("stale_after_s", c.stale_after_s, c.stale_after_s > 0.0, "must be > 0 s")?;
+        check("brake_deceleration", c.brake_deceleration, c.brake_deceleration > 0.0, "must be > 0 rad/s²")?;
+        check("resume_time_s", c.resume_time_s, c.resume_time_s >= 0.0, "must be ≥ 0 s")?;
+        check("goal_tolerance_m", c.goal_tolerance_m, c.goal_tolerance_m > 0.0, "must be > 0 m")?;
+        check(
+            "orientation_tolerance_rad",
+            c.orientation_tolerance_rad,
+            c.orientation_tolerance_rad > 0.0,
+            "must be > 0 rad",
+        )?;
+        let s = &c.scaling;
+        check("scaling.far_speed", s.far_speed, s.far_speed > 0.0, "must be > 0 m/s")?;
+        check(
+            "scaling.interaction_speed",
+            s.interaction_speed,
+            s.interaction_speed > 0.0 && s.interaction_speed <= s.far_speed,
+            "must be in (0, far_speed] m/s",
+        )?;
+        let e = c.modulation.epsilon;
+        check("modulation.epsilon", e, e > 0.0 && e < 1.0, "must be in (0, 1)")?;
+        let x = &c.escape;
+        check("escape.speed_threshold", x.speed_threshold, x.speed_threshold > 0.0, "must be > 0 m/s")?;
+        check("escape.contact_distance", x.contact_distance, x.contact_distance >= 0.0, "must be ≥ 0 m")?;
+        check(
+            "escape.perturbation_speed",
+            x.perturbation_speed,
+            x.perturbation_speed > 0.0,
+            "must be > 0 m/s",
+        )?;
+        let k = &c.ik;
+        check("ik.damping", k.damping, k.damping >= 0.0, "must be ≥ 0")?;
+        check("ik.link_damping", k.link_damping, k.link_damping >= 0.0, "must be ≥ 0")?;
+        check("ik.orientation_gain", k.orientation_gain, k.orientation_gain >= 0.0, "must be ≥ 0 1/s")?;
+        check("ik.max_angular_speed", k.max_angular_speed, k.max_angular_speed > 0.0, "must be > 0 rad/s")?;
+        check(
+            "ik.velocity_limit_fraction",
+            k.velocity_limit_fraction,
+            k.velocity_limit_fraction > 0.0 && k.velocity_limit_fraction <= 1.0,
+            "must be in (0, 1]",
+        )?;
+        check("ik.position_margin", k.position_margin, k.position_margin >= 0.0, "must be ≥ 0 rad")?;
+        Ok(())
+    }
+}
+
+/// Closest obstacle to one robot link (a `cowork_msgs/LinkDistance`), base frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkDistance {
+    /// An obstacle was found for this link; otherwise the other fields are ignored.
+    pub valid: bool,
+    /// Link–obstacle distance (m); ≤ 0 counts as contact.
+    pub distance: f64,
+    /// Closest point on the link (m).
+    pub robot_point: Point3<f64>,
+    /// Closest obstacle point (m).
+    pub obstacle_point: Point3<f64>,
+    /// Obstacle surface normal at `obstacle_point`, pointing away from the obstacle (need not
+    /// be unit, must be non-zero).
+    pub normal: Vector3<f64>,
+    /// Velocity of the obstacle point (m/s).
+    pub obstacle_velocity: Vector3<f64>,
+}
+
+impl LinkDistance {
+    /// No obstacle.
+    pub const NONE: Self = Self {
+        valid: false,
+        distance: f64::INFINITY,
+        robot_point: Point3::new(0.0, 0.0, 0.0),
+        obstacle_point: Point3::new(0.0, 0.0, 0.0),
+        normal: Vector3::new(0.0, 0.0, 1.0),
+        obstacle_velocity: Vector3::new(0.0, 0.0, 0.0),
+    };
+}
+
+/// Per-link distances of one fDED frame; entry `i` is link `i` of the model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Distances {
+    /// Time the distances were measured (s, same clock as [`ControlInput::time`]).
+    pub stamp: f64,
+    /// Number of meaningful entries in `links`.
+    pub count: usize,
+    /// Entries by link index.
+    pub links: [LinkDistance; MAX_LINKS],
+}
+
+impl Distances {
+    /// No data yet (stamp −∞: stale until the first message).
+    pub const NEVER: Self = Self {
+        stamp: f64::NEG_INFINITY,
+        count: 0,
+        links: [LinkDistance::NONE; MAX_LINKS],
+    };
+
+    /// A fresh set with no obstacle near any link.
+    pub fn clear(stamp: f64) -> Self {
+        Self {
+            stamp,
+            ..Self::NEVER
+        }
+    }
+}
+
+/// Latest `/human/state` with its time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HumanInput {
+    /// Time of the state (s).
+    pub stamp: f64,
+    /// The state.
+    pub state: HumanState,
+}
+
+/// The motion to run (a `cowork_msgs/MotionCommand`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MotionCommand {
+    /// Command id; a new id restarts the command (orientation to hold captured afresh).
+    pub id: u32,
+    /// The DS f.
+    pub primitive: Primitive,
+    /// Goal position g (m, base frame).
+    pub goal: Vector3<f64>,
+    /// `None`: hold the end-effector orientation of the command's first step; `Some`: drive it
+    /// to this orientation (base frame).
+    pub orientation: Option<UnitQuaternion<f64>>,
+    /// Modulate the end-effector DS (disabled e.g. for a handover, Sec. 5.1.3; null-space link
+    /// avoidance stays on).
+    pub end_effector_avoidance: bool,
+}
+
+/// Everything one step reads. `Copy`: the ROS side hands it over through a mailbox.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlInput {
+    /// Current time (s).
+    pub time: f64,
+    /// Measured joint positions (rad).
+    pub q: JointVector,
+    /// The motion to run.
+    pub command: MotionCommand,
+    /// Latest robot–obstacle distances.
+    pub distances: Distances,
+    /// Latest human state.
+    pub human: HumanInput,
+}
+
+/// Why the robot is held.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HoldReason {
+    /// A fault (stale or bad input).
+    Fault(Fault),
+    /// The command is [`Primitive::Hold`].
+    Command,
+    /// α_h = 0 (the person said stop).
+    SpeedZero,
+}
+
+/// Progress of the motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Status {
+    /// Moving towards the goal.
+    Running,
+    /// Within tolerance of the goal (the DS keeps regulating).
+    Converged,
+    /// Held (braking or at rest).
+    Held(HoldReason),
+}
+
+/// Figures of one step, for logs and tests.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Diagnostics {
+    /// End-effector position (m, base frame).
+    pub ee_position: Vector3<f64>,
+    /// ‖x − g‖ (m).
+    pub goal_error_m: f64,
+    /// Orientation error (rad) to the held or driven orientation.
+    pub orientation_error_rad: f64,
+    /// α_h of eq. 5.3 (times the resume ramp).
+    pub alpha: f64,
+    /// Distance of the end-effector's closest obstacle (m); ∞ when none.
+    pub ee_distance_m: f64,
+    /// Normal eigenvalue λ₁ used for the end effector (1 when unmodulated).
+    pub ee_lambda_normal: f64,
+    /// Link of the null-space task, if any.
+    pub avoid_link: Option<usize>,
+    /// Its distance (m); ∞ when none.
+    pub link_distance_m: f64,
+    /// Desired end-effector velocity after modulation and escape (m/s).
+    pub ee_velocity: Vector3<f64>,
+    /// Algorithm 5 is perturbing.
+    pub escaping: bool,
+    /// Saturations applied.
+    pub saturation: Saturation,
+    /// Link-task velocities.
+    pub ik: IkReport,
+}
+
+impl Default for Diagnostics {
+    fn default() -> Self {
+        Self {
+            ee_position: Vector3::zeros(),
+            goal_error_m: f64::NAN,
+            orientation_error_rad: 0.0,
+            alpha: 0.0,
+            ee_distance_m: f64::INFINITY,
+            ee_lambda_normal: 1.0,
+            avoid_link: None,
+            link_distance_m: f64::INFINITY,
+            ee_velocity: Vector3::zeros(),
+            escaping: false,
+            saturation: Saturation::default(),
+            ik: IkReport::default(),
+        }
+    }
+}
+
+/// What one step writes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlOutput {
+    /// Joint velocity command (rad/s), within the speed limits and such that q + q̇ dt stays
+    /// within the position limits.
+    pub qdot: JointVector,
+    /// Motion status.
+    pub status: Status,
+    /// Diagnostics.
+    pub diagnostics: Diagnostics,
+}
+
+impl Default for ControlOutput {
+    fn default() -> Self {
+        Self {
+            qdot: JointVector::zeros(),
+            status: Status::Held(HoldReason::Command),
+            diagnostics: Diagnostics::default(),
+        }
+    }
+}
+
+/// The reactive DS controller of Sec. 5.1.1. Build once, call [`step`](Self::step) every
+/// period; no step allocates.
+#[derive(Debug, Clone)]
+pub struct DsController {
+    model: RobotModel,
+    cfg: ControllerConfig,
+    reach: Reach,
+    tip: usize,
+    /// First link rigidly attached to the last joint: links from here on are "end effector".
+    ee_first_link: usize,
+    poses: LinkPoses,
+    ik: Ik,
+    escape: Escape,
+    last_qdot: JointVector,
+    command_id: Option<u32>,
+    held_orientation: UnitQuaternion<f64>,
+    /// Resume ramp in [0, 1]: 0 after a hold, rising to 1 over `resume_time_s`.
+    ramp: f64,
+}
+
+impl DsController {
+    /// A controller for `model` with `cfg` (validated here).
+    pub fn new(model: RobotModel, cfg: ControllerConfig) -> Result<Self> {
+        cfg.validate()?;
+        let reach = Reach::of_model(&model);
+        let tip = model.tip_link();
+        let ee_first_link = model.joint_link(DOF - 1);
+        Ok(Self {
+            reach,
+            tip,
+            ee_first_link,
+            poses: LinkPoses::new(),
+            ik: Ik::new(cfg.ik),
+            escape: Escape::new(),
+            last_qdot: JointVector::zeros(),
+            command_id: None,
+            held_orientation: UnitQuaternion::identity(),
+            ramp: 0.0,
+            model,
+            cfg,
+        })
+    }
+
+    /// The robot model.
+    pub fn model(&self) -> &RobotModel {
+        &self.model
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ControllerConfig {
+        &self.cfg
+    }
+
+    /// The arm's reach bound used for goal checks.
+    pub fn reach(&self) -> &Reach {
+        &self.reach
+    }
+
+    /// First link index treated as part of the end effector (links rigidly moved by the last
+    /// joint); lower links are avoided in the null space.
+    pub fn end_effector_first_link(&self) -> usize {
+        self.ee_first_link
+    }
+
+    /// The last joint velocity command (rad/s).
+    pub fn last_command(&self) -> &JointVector {
+        &self.last_qdot
+    }
+
+    /// One control period.
+    ///
+    /// Always fills `out` with a command to send. On `Err` (stale or bad input) that command
+    /// brakes every joint towards zero at `brake_deceleration` and the status is
+    /// [`Status::Held`]; motion resumes (ramped over `resume_time_s`) at the first step whose
+    /// inputs are fresh and valid. Allocation-free.
+    pub fn step(&mut self, input: &ControlInput, out: &mut ControlOutput) -> std::result::Result<(), Fault> {
+        if let Err(fault) = self.validate(input) {
+            self.brake(&input.q, out, HoldReason::Fault(fault));
+            return Err(fault);
+        }
+        let cmd = &input.command;
+        self.model.forward_kinematics(&input.q, &mut self.poses);
+        let tip_pose = *self.poses.get(self.tip);
+        let x = tip_pose.translation.vector;
+        if self.command_id != Some(cmd.id) {
+            self.command_id = Some(cmd.id);
+            self.held_orientation = tip_pose.rotation;
+            self.escape.reset();
+        }
+        let goal_error = (cmd.goal - x).norm();
+        let desired_rot = cmd.orientation.unwrap_or(self.held_orientation);
+        let rot_err = orientation_error(&tip_pose.rotation, &desired_rot);
+        let mut d = Diagnostics {
+            ee_position: x,
+            goal_error_m: goal_error,
+            orientation_error_rad: rot_err.norm(),
+            ..Diagnostics::default()
+        };
+        if matches!(cmd.primitive, Primitive::Hold) {
+            self.brake(&input.q, out, HoldReason::Command);
+            out.diagnostics = Diagnostics { alpha: 0.0, ..d };
+            return Ok(());
+        }
+
+        let dt = self.cfg.period_s;
+        let ramp_rate = if self.cfg.resume_time_s > 0.0 { dt / self.cfg.resume_time_s } else { 1.0 };
+        self.ramp = (self.ramp + ramp_rate).min(1.0);
+        let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp;
+        d.alpha = alpha;
+        let f = adapted_velocity(&cmd.primitive, &x, &cmd.goal) * alpha;
+
+        // End effector: closest obstacle of the links rigidly moved by the last joint.
+        let eps = self.cfg.modulation.epsilon;
+        let dist = &input.distances;
+        let mut xdot = f;
+        if self.cfg.modulation.end_effector && cmd.end_effector_avoidance {
+            if let Some(i) = closest(dist, self.ee_first_link, dist.count) {
+                let o = &dist.links[i];
+                let n = Unit::new_normalize(o.normal);
+                let v = orthonormal_basis(&n);
+                let m = modulation_matrix_in_basis(&v, o.distance, eps);
+                let modulated = modulate(&m, &f, &o.obstacle_velocity);
+                xdot = self.escape.step(&self.cfg.escape, &v, o.distance, &f, &modulated);
+                d.ee_distance_m = o.distance;
+                d.ee_lambda_normal = crate::modulation::eigenvalues(o.distance, eps).x;
+                d.escaping = self.escape.active();
+            } else {
+                self.escape.reset();
+            }
+        }
+        d.ee_velocity = xdot;
+
+        let mut w = rot_err * self.cfg.ik.orientation_gain;
+        let wn = w.norm();
+        if wn > self.cfg.ik.max_angular_speed {
+            w *= self.cfg.ik.max_angular_speed / wn;
+        }
+
+        // Null space: closest point of the other moving links.
+        let mut task = None;
+        if self.cfg.modulation.links {
+            let first_moving = self.model.joint_link(0);
+            if let Some(i) = closest(dist, first_moving, self.ee_first_link.min(dist.count)) {
+                let o = &dist.links[i];
+                let n = Unit::new_normalize(o.normal);
+                task = Some(LinkTask {
+                    link: i,
+                    point: o.robot_point,
+                    modulation: modulation_matrix_in_basis(&orthonormal_basis(&n), o.distance, eps),
+                    obstacle_velocity: o.obstacle_velocity,
+                });
+                d.avoid_link = Some(i);
+                d.link_distance_m = o.distance;
+            }
+        }
+
+        let mut qdot = self.ik.solve(&self.model, &self.poses, self.tip, &xdot, &w, task.as_ref(), &mut d.ik);
+        let k = &self.cfg.ik;
+        d.saturation = saturate(
+            self.model.joint_limits(),
+            &input.q,
+            &mut qdot,
+            dt,
+            k.velocity_limit_fraction,
+            k.position_margin,
+        );
+        self.last_qdot = qdot;
+        out.qdot = qdot;
+        let converged = goal_error <= self.cfg.goal_tolerance_m
+            && (cmd.orientation.is_none() || d.orientation_error_rad <= self.cfg.orientation_tolerance_rad);
+        out.status = if alpha == 0.0 && self.ramp >= 1.0 {
+            Status::Held(HoldReason::SpeedZero)
+        } else if converged {
+            Status::Converged
+        } else {
+            Status::Running
+        };
+        out.diagnostics = d;
+        Ok(())
+    }
+
+    /// Decelerates the last command towards zero, within the position limits.
+    fn brake(&mut self, q: &JointVector, out: &mut ControlOutput, reason: HoldReason) {
+        let dv = self.cfg.brake_deceleration * self.cfg.period_s;
+        let mut qdot = self.last_qdot.map(|v| v.signum() * (v.abs() - dv).max(0.0));
+        let finite_q = q.iter().all(|v| v.is_finite());
+        let sat = if finite_q {
+            saturate(
+                self.model.joint_limits(),
+                q,
+                &mut qdot,
+                self.cfg.period_s,
+                self.cfg.ik.velocity_limit_fraction,
+                self.cfg.ik.position_margin,
+            )
+        } else {
+            // Without a joint reading nothing can be checked against the limits: stop at once.
+            qdot = JointVector::zeros();
+            Saturation::default()
+        };
+        self.last_qdot = qdot;
+        self.ramp = 0.0;
+        self.escape.reset();
+        out.qdot = qdot;
+        out.status = Status::Held(reason);
+        out.diagnostics = Diagnostics {
+            saturation: sat,
+            ..Diagnostics::default()
+        };
+    }
+
+    fn validate(&self, input: &ControlInput) -> std::result::Result<(), Fault> {
+        const NO_LINK: usize = usize::MAX;
+        let bad = |what| Fault::NonFinite { what, link: NO_LINK };
+        if !input.time.is_finite() {
+            return Err(bad("time"));
+        }
+        if !input.q.iter().all(|v| v.is_finite()) {
+            return Err(bad("q"));
+        }
+        let cmd = &input.command;
+        if !cmd.goal.iter().all(|v| v.is_finite()) {
+            return Err(bad("goal"));
+        }
+        if let Some(r) = cmd.orientation
+            && !r.coords.iter().all(|v| v.is_finite())
+        {
+            return Err(bad("goal orientation"));
+        }
+        if let Some((what, value)) = cmd.primitive.invalid_parameter() {
+            return Err(Fault::BadPrimitive { what, value });
+        }
+        let stale = |stream, stamp: f64| {
+            let age = input.time - stamp;
+            // NaN stamps fail this comparison too.
+            if age <= self.cfg.stale_after_s {
+                Ok(())
+            } else {
+                Err(Fault::Stale {
+                    stream,
+                    age_s: age,
+                    bound_s: self.cfg.stale_after_s,
+                })
+            }
+        };
+        stale(Stream::Distances, input.distances.stamp)?;
+        stale(Stream::Human, input.human.stamp)?;
+        let dist = &input.distances;
+        if dist.count > self.model.link_count() {
+            return Err(Fault::TooManyLinks {
+                given: dist.count,
+                links: self.model.link_count(),
+            });
+        }
+        for (link, o) in dist.links[..dist.count].iter().enumerate() {
+            if !o.valid {
+                continue;
+            }
+            let nf = |what| Fault::NonFinite { what, link };
+            if !o.distance.is_finite() {
+                return Err(nf("distance"));
+            }
+            if !o.normal.iter().all(|v| v.is_finite()) {
+                return Err(nf("normal"));
+            }
+            if o.normal.norm() < 1e-9 {
+                return Err(Fault::ZeroNormal { link });
+            }
+            if !o.robot_point.iter().all(|v| v.is_finite()) {
+                return Err(nf("robot point"));
+            }
+            if !o.obstacle_point.iter().all(|v| v.is_finite()) {
+                return Err(nf("obstacle point"));
+            }
+            if !o.obstacle_velocity.iter().all(|v| v.is_finite()) {
+                return Err(nf("obstacle velocity"));
+            }
+        }
+        if self.cfg.check_reach && !matches!(cmd.primitive, Primitive::Hold) {
+            self.reach.check(&cmd.goal)?;
+        }
+        Ok(())
+    }
+}
+
+/// Index of the valid entry with the smallest distance among links `from..to`.
+fn closest(dist: &Distances, from: usize, to: usize) -> Option<usize> {
+    let mut best: Option<usize> = None;
+    for i in from..to.min(dist.count) {
+        let o = &dist.links[i];
+        if o.valid && best.is_none_or(|b| o.distance < dist.links[b].distance) {
+            best = Some(i);
+        }
+    }
+    best
+}

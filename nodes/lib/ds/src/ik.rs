@@ -1,0 +1,245 @@
+//! Multi-priority inverse kinematics (thesis eq. 5.12–5.13, A.2.2) with null-space avoidance
+//! of the closest link point, and joint position / velocity saturation.
+//!
+//! Frames: base frame for every Cartesian quantity; rates in m/s, rad/s. Allocation-free.
+
+use cowork_robot::{
+    DOF, Jacobian, JointLimit, JointVector, LinkPoses, PositionJacobian, RobotModel,
+    damped_pseudo_inverse, damped_pseudo_inverse_3, null_space_projector,
+};
+use nalgebra::{Matrix3, Point3, SVector, UnitQuaternion, Vector3};
+
+/// Parameters of the IK and the saturation.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IkConfig {
+    /// Damping λ of the end-effector task's pseudo-inverse (mixed m/rad units).
+    pub damping: f64,
+    /// Damping λ of the link-point task's pseudo-inverse (m/rad).
+    pub link_damping: f64,
+    /// Gain of the angular-error feedback that holds or drives the orientation (1/s).
+    pub orientation_gain: f64,
+    /// Largest commanded end-effector angular speed (rad/s).
+    pub max_angular_speed: f64,
+    /// Fraction of each joint's URDF speed limit that may be commanded, in (0, 1].
+    pub velocity_limit_fraction: f64,
+    /// Joints stop this far inside their URDF position limits (rad), ≥ 0.
+    pub position_margin: f64,
+}
+
+impl Default for IkConfig {
+    fn default() -> Self {
+        Self {
+            damping: 0.01,
+            link_damping: 0.02,
+            orientation_gain: 5.0,
+            max_angular_speed: 1.5,
+            velocity_limit_fraction: 1.0,
+            position_margin: 0.0,
+        }
+    }
+}
+
+/// The secondary task: the closest point of a (non end-effector) link to an obstacle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinkTask {
+    /// Link index in the model.
+    pub link: usize,
+    /// The closest point on the link (m, base frame).
+    pub point: Point3<f64>,
+    /// Modulation matrix M(x_l) of that point (eq. 5.7).
+    pub modulation: Matrix3<f64>,
+    /// Velocity of the closest obstacle point (m/s).
+    pub obstacle_velocity: Vector3<f64>,
+}
+
+/// Angular error (rad, base frame) that rotates `current` onto `desired`: the rotation vector
+/// of `desired · current⁻¹`, shortest way round.
+pub fn orientation_error(current: &UnitQuaternion<f64>, desired: &UnitQuaternion<f64>) -> Vector3<f64> {
+    (desired * current.inverse()).scaled_axis()
+}
+
+/// Solves eq. 5.13 (in the task-priority form of Nakamura, see [`solve`]).
+///
+/// Scratch buffers sized at compile time; one instance per controller.
+#[derive(Debug, Clone)]
+pub struct Ik {
+    cfg: IkConfig,
+    jac: Jacobian,
+    pj: PositionJacobian,
+}
+
+/// What [`Ik::solve`] reports besides q̇.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct IkReport {
+    /// Link-point velocity the secondary task asked for (m/s); zero without a link task.
+    pub link_velocity_desired: Vector3<f64>,
+    /// Link-point velocity achieved by the final (unsaturated) q̇ (m/s).
+    pub link_velocity: Vector3<f64>,
+}
+
+impl Ik {
+    /// An IK with parameters `cfg` (validated by the controller config).
+    pub fn new(cfg: IkConfig) -> Self {
+        Self {
+            cfg,
+            jac: Jacobian::zeros(),
+            pj: PositionJacobian::zeros(),
+        }
+    }
+
+    /// Parameters.
+    pub fn config(&self) -> &IkConfig {
+        &self.cfg
+    }
+
+    /// Joint velocity (rad/s, unsaturated) for end-effector linear velocity `v` (m/s) and
+    /// angular velocity `w` (rad/s) of link `tip` at its frame origin, with the optional
+    /// null-space link task; `poses` from forward kinematics at the current q.
+    ///
+    /// Primary: q̇₁ = J† [v; w] (damped). Secondary (eq. 5.13): the closest link point x_l
+    /// should move with the modulated velocity ẋ_l* = M(x_l)(ẋ_l − ẋ_O) + ẋ_O, ẋ_l = J_l q̇₁
+    /// being what the primary task alone would give it. It is realised as far as the null space
+    /// allows: q̇ = q̇₁ + N (J_l N)† (ẋ_l* − J_l q̇₁), N = I − J†J. Why not the literal
+    /// N J_l† M ẋ_l of 5.13: there the null-space motion adds to the primary-induced link motion
+    /// instead of replacing it, so an approach along n̂ is not cancelled; the task-priority form
+    /// gives exactly M's reduction of the approach where the redundancy permits and leaves the
+    /// end-effector task untouched, as 5.13 intends.
+    pub fn solve(
+        &mut self,
+        model: &RobotModel,
+        poses: &LinkPoses,
+        tip: usize,
+        v: &Vector3<f64>,
+        w: &Vector3<f64>,
+        link_task: Option<&LinkTask>,
+        report: &mut IkReport,
+    ) -> JointVector {
+        model.jacobian(poses, tip, &Point3::origin(), &mut self.jac);
+        let pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
+        let twist = SVector::<f64, 6>::new(v.x, v.y, v.z, w.x, w.y, w.z);
+        let q1 = pinv * twist;
+        *report = IkReport::default();
+        let Some(task) = link_task else {
+            return q1;
+        };
+        let in_link = poses.get(task.link).inverse_transform_point(&task.point);
+        model.position_jacobian(poses, task.link, &in_link, &mut self.pj);
+        let n = null_space_projector(&self.jac, &pinv);
+        let x_l = self.pj * q1;
+        let desired = task.modulation * (x_l - task.obstacle_velocity) + task.obstacle_velocity;
+        let jn: PositionJacobian = self.pj * n;
+        let jn_pinv = damped_pseudo_inverse_3(&jn, self.cfg.link_damping);
+        let q = q1 + n * (jn_pinv * (desired - x_l));
+        report.link_velocity_desired = desired;
+        report.link_velocity = self.pj * q;
+        q
+    }
+}
+
+/// Which limits [`saturate`] had to enforce.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Saturation {
+    /// Some joint exceeded its speed limit: the whole q̇ was scaled down (direction kept).
+    pub velocity: bool,
+    /// Some joint would have crossed a position limit within `dt`: that joint was clamped.
+    pub position: bool,
+}
+
+/// Saturates `qdot` (rad/s) in place so that |q̇ᵢ| ≤ fraction · limitᵢ.velocity and
+/// q + q̇ dt stays within [lower + margin, upper − margin] (a joint already outside is only
+/// allowed to move back in, at most at its speed limit).
+///
+/// Velocity first scales the whole vector (keeps the Cartesian direction, as a uniform time
+/// scaling does); the position clamp then acts per joint.
+pub fn saturate(
+    limits: &[JointLimit; DOF],
+    q: &JointVector,
+    qdot: &mut JointVector,
+    dt: f64,
+    fraction: f64,
+    margin: f64,
+) -> Saturation {
+    let mut sat = Saturation::default();
+    let mut scale: f64 = 1.0;
+    for i in 0..DOF {
+        let vmax = limits[i].velocity * fraction;
+        if qdot[i].abs() > vmax {
+            scale = scale.min(vmax / qdot[i].abs());
+        }
+    }
+    if scale < 1.0 {
+        *qdot *= scale;
+        sat.velocity = true;
+    }
+    for i in 0..DOF {
+        let l = &limits[i];
+        let vmax = l.velocity * fraction;
+        let lo = ((l.lower + margin - q[i]) / dt).min(0.0).max(-vmax);
+        let hi = ((l.upper - margin - q[i]) / dt).max(0.0).min(vmax);
+        // Outside the range: only motion back in is allowed.
+        let (lo, hi) = if q[i] < l.lower + margin {
+            (0.0, ((l.lower + margin - q[i]) / dt).min(vmax))
+        } else if q[i] > l.upper - margin {
+            ((((l.upper - margin) - q[i]) / dt).max(-vmax), 0.0)
+        } else {
+            (lo, hi)
+        };
+        let c = qdot[i].clamp(lo, hi);
+        if c != qdot[i] {
+            qdot[i] = c;
+            sat.position = true;
+        }
+    }
+    sat
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn limits() -> [JointLimit; DOF] {
+        [JointLimit {
+            lower: -1.0,
+            upper: 1.0,
+            velocity: 2.0,
+        }; DOF]
+    }
+
+    #[test]
+    fn velocity_scaling_keeps_direction() {
+        let mut qd = JointVector::from_element(1.0);
+        qd[2] = 4.0;
+        let before = qd;
+        let s = saturate(&limits(), &JointVector::zeros(), &mut qd, 0.001, 1.0, 0.0);
+        assert!(s.velocity && !s.position);
+        assert!((qd[2] - 2.0).abs() < 1e-12);
+        assert!((qd.normalize() - before.normalize()).norm() < 1e-12);
+    }
+
+    #[test]
+    fn position_limit_is_never_crossed() {
+        let mut q = JointVector::from_element(0.9995);
+        let mut qd = JointVector::from_element(1.5);
+        let s = saturate(&limits(), &q, &mut qd, 0.001, 1.0, 0.0);
+        assert!(s.position);
+        q += qd * 0.001;
+        assert!(q.iter().all(|&x| x <= 1.0 + 1e-15));
+        // Already outside: may only come back.
+        let q = JointVector::from_element(1.2);
+        let mut qd = JointVector::from_element(1.0);
+        saturate(&limits(), &q, &mut qd, 0.001, 1.0, 0.0);
+        assert!(qd.iter().all(|&x| x == 0.0));
+        let mut qd = JointVector::from_element(-3.0);
+        saturate(&limits(), &q, &mut qd, 0.001, 1.0, 0.0);
+        assert!(qd.iter().all(|&x| (x + 2.0).abs() < 1e-12));
+    }
+
+    #[test]
+    fn orientation_error_is_the_rotation_vector() {
+        let a = UnitQuaternion::from_euler_angles(0.1, 0.2, 0.3);
+        let d = UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.4)) * a;
+        let e = orientation_error(&a, &d);
+        assert!((e - Vector3::new(0.0, 0.0, 0.4)).norm() < 1e-12);
+    }
+}

@@ -1,0 +1,139 @@
+//! First-order dynamical-system primitives ẋ = f(x − g) (thesis eq. 5.1–5.2).
+//!
+//! Positions are end-effector positions in the robot base frame (m), velocities in m/s. Every
+//! primitive here is globally asymptotically stable at the goal, which modulation and
+//! velocity scaling preserve (Sec. 5.1.1).
+
+use nalgebra::Vector3;
+
+/// A first-order DS evaluated at a position for a goal: ẋ = f(x − g).
+///
+/// Implementations must be allocation-free and return a finite velocity for finite inputs;
+/// other primitives (DMP, GMR, C-GMR of `cowork_motion`) plug in by implementing this trait.
+pub trait FirstOrderDs {
+    /// Desired velocity (m/s, base frame) at position `x` (m) for goal `goal` (m).
+    fn velocity(&self, x: &Vector3<f64>, goal: &Vector3<f64>) -> Vector3<f64>;
+}
+
+/// Linear DS ẋ = k (g − x) (Fig. 5.3–5.6 use k = 2 and k = 3).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Linear {
+    /// Gain k (1/s), > 0.
+    pub gain: f64,
+}
+
+impl FirstOrderDs for Linear {
+    fn velocity(&self, x: &Vector3<f64>, goal: &Vector3<f64>) -> Vector3<f64> {
+        (goal - x) * self.gain
+    }
+}
+
+/// Constant-speed DS ẋ = α (g − x)/‖g − x‖ (Sec. 5.1.3), smoothed near the goal as
+/// ẋ = α (g − x)/√(‖g − x‖² + r²) so that it is C∞ and converges (it behaves like a linear
+/// DS of gain α/r inside radius r and moves at ≈ α beyond a few r).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstantSpeed {
+    /// Speed α far from the goal (m/s), > 0.
+    pub speed: f64,
+    /// Smoothing radius r (m), > 0.
+    #[serde(default = "ConstantSpeed::default_smoothing")]
+    pub smoothing: f64,
+}
+
+impl ConstantSpeed {
+    /// Default smoothing radius (m).
+    pub const DEFAULT_SMOOTHING: f64 = 0.01;
+
+    fn default_smoothing() -> f64 {
+        Self::DEFAULT_SMOOTHING
+    }
+
+    /// A constant-speed DS with the default smoothing radius.
+    pub fn new(speed: f64) -> Self {
+        Self {
+            speed,
+            smoothing: Self::DEFAULT_SMOOTHING,
+        }
+    }
+}
+
+impl FirstOrderDs for ConstantSpeed {
+    fn velocity(&self, x: &Vector3<f64>, goal: &Vector3<f64>) -> Vector3<f64> {
+        let e = goal - x;
+        let r2 = self.smoothing * self.smoothing;
+        e * (self.speed / (e.norm_squared() + r2).sqrt())
+    }
+}
+
+/// The primitives a [`crate::ControlInput`] can carry (`Copy`, so the real-time thread can
+/// receive it through a mailbox).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "snake_case")]
+pub enum Primitive {
+    /// [`Linear`].
+    Linear(Linear),
+    /// [`ConstantSpeed`].
+    ConstantSpeed(ConstantSpeed),
+    /// Hold the current position: ẋ = 0 (the robot brakes to rest).
+    Hold,
+}
+
+impl Primitive {
+    /// The first parameter that is not finite and positive, as `(name, value)`.
+    pub fn invalid_parameter(&self) -> Option<(&'static str, f64)> {
+        let bad = |v: f64| !(v.is_finite() && v > 0.0);
+        match *self {
+            Primitive::Linear(l) if bad(l.gain) => Some(("gain", l.gain)),
+            Primitive::ConstantSpeed(c) if bad(c.speed) => Some(("speed", c.speed)),
+            Primitive::ConstantSpeed(c) if bad(c.smoothing) => Some(("smoothing", c.smoothing)),
+            _ => None,
+        }
+    }
+}
+
+impl FirstOrderDs for Primitive {
+    fn velocity(&self, x: &Vector3<f64>, goal: &Vector3<f64>) -> Vector3<f64> {
+        match self {
+            Primitive::Linear(l) => l.velocity(x, goal),
+            Primitive::ConstantSpeed(c) => c.velocity(x, goal),
+            Primitive::Hold => Vector3::zeros(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_points_to_goal_with_gain() {
+        let v = Linear { gain: 2.0 }.velocity(&Vector3::new(1.0, 0.0, 0.0), &Vector3::zeros());
+        assert_eq!(v, Vector3::new(-2.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn constant_speed_far_and_near() {
+        let ds = ConstantSpeed::new(0.3);
+        let far = ds.velocity(&Vector3::new(1.0, 0.0, 0.0), &Vector3::zeros());
+        assert!((far.norm() - 0.3).abs() < 1e-4, "{far}");
+        let at = ds.velocity(&Vector3::zeros(), &Vector3::zeros());
+        assert_eq!(at, Vector3::zeros());
+        // Inside the smoothing radius it is linear with gain α/r.
+        let near = ds.velocity(&Vector3::new(1e-5, 0.0, 0.0), &Vector3::zeros());
+        assert!((near.x + 1e-5 * 0.3 / 0.01).abs() < 1e-9, "{near}");
+    }
+
+    #[test]
+    fn invalid_parameters_are_named() {
+        assert_eq!(
+            Primitive::Linear(Linear { gain: -1.0 }).invalid_parameter(),
+            Some(("gain", -1.0))
+        );
+        assert!(Primitive::ConstantSpeed(ConstantSpeed::new(f64::NAN))
+            .invalid_parameter()
+            .is_some());
+        assert_eq!(Primitive::Hold.invalid_parameter(), None);
+    }
+}
