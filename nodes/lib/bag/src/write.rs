@@ -1,0 +1,247 @@
+//! [`BagWriter`]: MCAP files with the ROS 2 profile.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use cowork_msgs::{RosMessage, to_cdr_into};
+use mcap::records::MessageHeader;
+
+use crate::{BagError, Result};
+
+/// Handle of a channel (one topic with one type) returned by [`BagWriter::add_channel`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ChannelId(usize);
+
+#[derive(Debug)]
+struct ChannelEntry {
+    mcap_id: u16,
+    topic: String,
+    type_name: String,
+    definition: String,
+    sequence: u32,
+}
+
+/// What [`BagWriter::finish`] wrote.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WriteSummary {
+    /// Messages written.
+    pub message_count: u64,
+    /// Channels (topics) written.
+    pub channel_count: usize,
+}
+
+/// Writes an MCAP bag with the ROS 2 profile: profile `ros2`, schema encoding `ros2msg` with
+/// the full definition text, message encoding `cdr` (with the 4-byte encapsulation header),
+/// zstd-compressed chunks, and a summary section with statistics and indexes.
+///
+/// Call [`finish`](Self::finish) when done and check its result: dropping the writer without it
+/// also writes the summary, but any error there would be lost.
+pub struct BagWriter {
+    path: PathBuf,
+    inner: mcap::Writer<BufWriter<File>>,
+    channels: Vec<ChannelEntry>,
+    by_topic: HashMap<String, usize>,
+    buffer: Vec<u8>,
+    message_count: u64,
+}
+
+impl std::fmt::Debug for BagWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BagWriter")
+            .field("path", &self.path)
+            .field("channels", &self.channels)
+            .field("message_count", &self.message_count)
+            .finish_non_exhaustive()
+    }
+}
+
+impl BagWriter {
+    /// Creates (or truncates) the bag at `path`.
+    pub fn create(path: impl AsRef<Path>) -> Result<Self> {
+        let path = path.as_ref().to_path_buf();
+        let file = File::create(&path).map_err(|source| BagError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let inner = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library(concat!("cowork_bag/", env!("CARGO_PKG_VERSION")))
+            .compression(Some(mcap::Compression::Zstd))
+            .create(BufWriter::new(file))
+            .map_err(|source| BagError::Write {
+                path: path.clone(),
+                source,
+            })?;
+        Ok(Self {
+            path,
+            inner,
+            channels: Vec::new(),
+            by_topic: HashMap::new(),
+            buffer: Vec::new(),
+            message_count: 0,
+        })
+    }
+
+    /// The bag's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Registers `topic` carrying `T` (schema once per type, channel once per topic) and
+    /// returns its handle. Adding the same topic with the same type again returns the same id.
+    pub fn add_channel<T: RosMessage>(&mut self, topic: &str) -> Result<ChannelId> {
+        self.channel_for(topic, &T::type_name(), None::<&str>, T::ros2msg_definition)
+    }
+
+    fn channel_for(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        definition: Option<&str>,
+        our_definition: impl FnOnce() -> String,
+    ) -> Result<ChannelId> {
+        if let Some(&i) = self.by_topic.get(topic) {
+            let entry = &self.channels[i];
+            let same_definition = definition.is_none_or(|d| d == entry.definition);
+            if entry.type_name != type_name || !same_definition {
+                return Err(BagError::TopicTypeConflict {
+                    path: self.path.clone(),
+                    topic: topic.to_owned(),
+                    existing: entry.type_name.clone(),
+                    requested: type_name.to_owned(),
+                });
+            }
+            return Ok(ChannelId(i));
+        }
+        let definition = definition.map_or_else(our_definition, str::to_owned);
+        // mcap coalesces identical schema records, so a type is stored once.
+        let schema_id = self
+            .inner
+            .add_schema(type_name, "ros2msg", definition.as_bytes())
+            .map_err(|source| self.write_error(source))?;
+        let mcap_id = self
+            .inner
+            .add_channel(schema_id, topic, "cdr", &BTreeMap::new())
+            .map_err(|source| self.write_error(source))?;
+        self.channels.push(ChannelEntry {
+            mcap_id,
+            topic: topic.to_owned(),
+            type_name: type_name.to_owned(),
+            definition,
+            sequence: 0,
+        });
+        let id = self.channels.len() - 1;
+        self.by_topic.insert(topic.to_owned(), id);
+        Ok(ChannelId(id))
+    }
+
+    fn write_error(&self, source: mcap::McapError) -> BagError {
+        BagError::Write {
+            path: self.path.clone(),
+            source,
+        }
+    }
+
+    /// Writes `msg` on `channel` as CDR. Times are ns on the bag's clock (sim or wall time):
+    /// `log_time_ns` when it was recorded, `publish_time_ns` when it was published.
+    pub fn write<T: RosMessage>(
+        &mut self,
+        channel: ChannelId,
+        log_time_ns: u64,
+        publish_time_ns: u64,
+        msg: &T,
+    ) -> Result<()> {
+        let entry = self
+            .channels
+            .get(channel.0)
+            .ok_or_else(|| BagError::UnknownChannel {
+                path: self.path.clone(),
+                channel: channel.0,
+            })?;
+        if !cowork_msgs::type_name_matches(T::PACKAGE, T::NAME, &entry.type_name) {
+            return Err(BagError::ChannelTypeMismatch {
+                path: self.path.clone(),
+                topic: entry.topic.clone(),
+                channel_type: entry.type_name.clone(),
+                message_type: T::type_name(),
+            });
+        }
+        let mut buffer = std::mem::take(&mut self.buffer);
+        to_cdr_into(msg, &mut buffer);
+        let result = self.write_bytes(channel.0, log_time_ns, publish_time_ns, &buffer);
+        self.buffer = buffer;
+        result
+    }
+
+    /// Writes an already serialised CDR payload on `topic` with the given type name and full
+    /// `ros2msg` definition, unchanged: this is how messages of types we do not know are carried
+    /// from one bag (or the wire) to another.
+    pub fn write_raw(
+        &mut self,
+        topic: &str,
+        type_name: &str,
+        definition: &str,
+        log_time_ns: u64,
+        publish_time_ns: u64,
+        data: &[u8],
+    ) -> Result<()> {
+        let ChannelId(i) = self.channel_for(topic, type_name, Some(definition), String::new)?;
+        self.write_bytes(i, log_time_ns, publish_time_ns, data)
+    }
+
+    fn write_bytes(
+        &mut self,
+        index: usize,
+        log_time_ns: u64,
+        publish_time_ns: u64,
+        data: &[u8],
+    ) -> Result<()> {
+        let Some(entry) = self.channels.get_mut(index) else {
+            return Err(BagError::UnknownChannel {
+                path: self.path.clone(),
+                channel: index,
+            });
+        };
+        let header = MessageHeader {
+            channel_id: entry.mcap_id,
+            sequence: entry.sequence,
+            log_time: log_time_ns,
+            publish_time: publish_time_ns,
+        };
+        entry.sequence = entry.sequence.wrapping_add(1);
+        self.inner
+            .write_to_known_channel(&header, data)
+            .map_err(|source| BagError::Write {
+                path: self.path.clone(),
+                source,
+            })?;
+        self.message_count += 1;
+        Ok(())
+    }
+
+    /// Writes the last chunk, the summary section and the footer, and flushes the file.
+    pub fn finish(mut self) -> Result<WriteSummary> {
+        self.inner
+            .finish()
+            .map_err(|source| self.write_error(source))?;
+        let path = self.path.clone();
+        let mut file = self.inner.into_inner();
+        std::io::Write::flush(&mut file).map_err(|source| BagError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        file.into_inner()
+            .map_err(|e| BagError::Io {
+                path: path.clone(),
+                source: e.into_error(),
+            })?
+            .sync_all()
+            .map_err(|source| BagError::Io { path, source })?;
+        Ok(WriteSummary {
+            message_count: self.message_count,
+            channel_count: self.channels.len(),
+        })
+    }
+}
