@@ -3,8 +3,8 @@
 
 use cowork_ds::primitive::ConstantSpeed;
 use cowork_ds::{
-    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, HumanInput,
-    HumanState, LinkDistance, MotionCommand, Primitive,
+    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, HumanInput, HumanState,
+    LinkDistance, MotionCommand, Primitive,
 };
 use cowork_robot::{JointVector, RobotModel};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -51,7 +51,8 @@ fn input(model: &RobotModel) -> ControlInput {
 }
 
 fn bench(c: &mut Criterion) {
-    let urdf = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf");
+    let urdf =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf");
     let model = RobotModel::from_urdf_file(urdf).expect("LWR URDF loads");
     let input = input(&model);
     let mut ctl = DsController::new(model, ControllerConfig::default()).expect("default config");

@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Fault, Result, Stream};
 use crate::goal::{Reach, adapted_velocity};
-use crate::ik::{Ik, IkConfig, IkReport, LinkTask, Saturation, orientation_error, saturate};
+use crate::ik::{Ik, IkConfig, IkReport, LinkTask, Saturation, Twist, orientation_error, saturate};
 use crate::modulation::{
     EPSILON, Escape, EscapeConfig, modulate, modulation_matrix_in_basis, orthonormal_basis,
 };
@@ -96,11 +96,36 @@ impl ControllerConfig {
     /// Rejects NaN, infinite and out-of-range values, naming the field.
     pub fn validate(&self) -> Result<()> {
         let c = self;
-        check("period_s", c.period_s, c.period_s > 0.0 && c.period_s <= 0.1, "must be in (0, 0.1] s")?;
-        check("stale_after_s", c.stale_after_s, c.stale_after_s > 0.0, "must be > 0 s")?;
-        check("brake_deceleration", c.brake_deceleration, c.brake_deceleration > 0.0, "must be > 0 rad/s²")?;
-        check("resume_time_s", c.resume_time_s, c.resume_time_s >= 0.0, "must be ≥ 0 s")?;
-        check("goal_tolerance_m", c.goal_tolerance_m, c.goal_tolerance_m > 0.0, "must be > 0 m")?;
+        check(
+            "period_s",
+            c.period_s,
+            c.period_s > 0.0 && c.period_s <= 0.1,
+            "must be in (0, 0.1] s",
+        )?;
+        check(
+            "stale_after_s",
+            c.stale_after_s,
+            c.stale_after_s > 0.0,
+            "must be > 0 s",
+        )?;
+        check(
+            "brake_deceleration",
+            c.brake_deceleration,
+            c.brake_deceleration > 0.0,
+            "must be > 0 rad/s²",
+        )?;
+        check(
+            "resume_time_s",
+            c.resume_time_s,
+            c.resume_time_s >= 0.0,
+            "must be ≥ 0 s",
+        )?;
+        check(
+            "goal_tolerance_m",
+            c.goal_tolerance_m,
+            c.goal_tolerance_m > 0.0,
+            "must be > 0 m",
+        )?;
         check(
             "orientation_tolerance_rad",
             c.orientation_tolerance_rad,
@@ -108,7 +133,12 @@ impl ControllerConfig {
             "must be > 0 rad",
         )?;
         let s = &c.scaling;
-        check("scaling.far_speed", s.far_speed, s.far_speed > 0.0, "must be > 0 m/s")?;
+        check(
+            "scaling.far_speed",
+            s.far_speed,
+            s.far_speed > 0.0,
+            "must be > 0 m/s",
+        )?;
         check(
             "scaling.interaction_speed",
             s.interaction_speed,
@@ -116,10 +146,25 @@ impl ControllerConfig {
             "must be in (0, far_speed] m/s",
         )?;
         let e = c.modulation.epsilon;
-        check("modulation.epsilon", e, e > 0.0 && e < 1.0, "must be in (0, 1)")?;
+        check(
+            "modulation.epsilon",
+            e,
+            e > 0.0 && e < 1.0,
+            "must be in (0, 1)",
+        )?;
         let x = &c.escape;
-        check("escape.speed_threshold", x.speed_threshold, x.speed_threshold > 0.0, "must be > 0 m/s")?;
-        check("escape.contact_distance", x.contact_distance, x.contact_distance >= 0.0, "must be ≥ 0 m")?;
+        check(
+            "escape.speed_threshold",
+            x.speed_threshold,
+            x.speed_threshold > 0.0,
+            "must be > 0 m/s",
+        )?;
+        check(
+            "escape.contact_distance",
+            x.contact_distance,
+            x.contact_distance >= 0.0,
+            "must be ≥ 0 m",
+        )?;
         check(
             "escape.perturbation_speed",
             x.perturbation_speed,
@@ -128,16 +173,36 @@ impl ControllerConfig {
         )?;
         let k = &c.ik;
         check("ik.damping", k.damping, k.damping >= 0.0, "must be ≥ 0")?;
-        check("ik.link_damping", k.link_damping, k.link_damping >= 0.0, "must be ≥ 0")?;
-        check("ik.orientation_gain", k.orientation_gain, k.orientation_gain >= 0.0, "must be ≥ 0 1/s")?;
-        check("ik.max_angular_speed", k.max_angular_speed, k.max_angular_speed > 0.0, "must be > 0 rad/s")?;
+        check(
+            "ik.link_damping",
+            k.link_damping,
+            k.link_damping >= 0.0,
+            "must be ≥ 0",
+        )?;
+        check(
+            "ik.orientation_gain",
+            k.orientation_gain,
+            k.orientation_gain >= 0.0,
+            "must be ≥ 0 1/s",
+        )?;
+        check(
+            "ik.max_angular_speed",
+            k.max_angular_speed,
+            k.max_angular_speed > 0.0,
+            "must be > 0 rad/s",
+        )?;
         check(
             "ik.velocity_limit_fraction",
             k.velocity_limit_fraction,
             k.velocity_limit_fraction > 0.0 && k.velocity_limit_fraction <= 1.0,
             "must be in (0, 1]",
         )?;
-        check("ik.position_margin", k.position_margin, k.position_margin >= 0.0, "must be ≥ 0 rad")?;
+        check(
+            "ik.position_margin",
+            k.position_margin,
+            k.position_margin >= 0.0,
+            "must be ≥ 0 rad",
+        )?;
         Ok(())
     }
 }
@@ -408,7 +473,11 @@ impl DsController {
     /// brakes every joint towards zero at `brake_deceleration` and the status is
     /// [`Status::Held`]; motion resumes (ramped over `resume_time_s`) at the first step whose
     /// inputs are fresh and valid. Allocation-free.
-    pub fn step(&mut self, input: &ControlInput, out: &mut ControlOutput) -> std::result::Result<(), Fault> {
+    pub fn step(
+        &mut self,
+        input: &ControlInput,
+        out: &mut ControlOutput,
+    ) -> std::result::Result<(), Fault> {
         if let Err(fault) = self.validate(input) {
             self.brake(&input.q, out, HoldReason::Fault(fault));
             return Err(fault);
@@ -438,7 +507,11 @@ impl DsController {
         }
 
         let dt = self.cfg.period_s;
-        let ramp_rate = if self.cfg.resume_time_s > 0.0 { dt / self.cfg.resume_time_s } else { 1.0 };
+        let ramp_rate = if self.cfg.resume_time_s > 0.0 {
+            dt / self.cfg.resume_time_s
+        } else {
+            1.0
+        };
         self.ramp = (self.ramp + ramp_rate).min(1.0);
         let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp;
         d.alpha = alpha;
@@ -455,7 +528,9 @@ impl DsController {
                 let v = orthonormal_basis(&n);
                 let m = modulation_matrix_in_basis(&v, o.distance, eps);
                 let modulated = modulate(&m, &f, &o.obstacle_velocity);
-                xdot = self.escape.step(&self.cfg.escape, &v, o.distance, &f, &modulated);
+                xdot = self
+                    .escape
+                    .step(&self.cfg.escape, &v, o.distance, &f, &modulated);
                 d.ee_distance_m = o.distance;
                 d.ee_lambda_normal = crate::modulation::eigenvalues(o.distance, eps).x;
                 d.escaping = self.escape.active();
@@ -489,7 +564,15 @@ impl DsController {
             }
         }
 
-        let mut qdot = self.ik.solve(&self.model, &self.poses, self.tip, &xdot, &w, task.as_ref(), &mut d.ik);
+        let twist = Twist::new(xdot.x, xdot.y, xdot.z, w.x, w.y, w.z);
+        let mut qdot = self.ik.solve(
+            &self.model,
+            &self.poses,
+            self.tip,
+            &twist,
+            task.as_ref(),
+            &mut d.ik,
+        );
         let k = &self.cfg.ik;
         d.saturation = saturate(
             self.model.joint_limits(),
@@ -502,7 +585,8 @@ impl DsController {
         self.last_qdot = qdot;
         out.qdot = qdot;
         let converged = goal_error <= self.cfg.goal_tolerance_m
-            && (cmd.orientation.is_none() || d.orientation_error_rad <= self.cfg.orientation_tolerance_rad);
+            && (cmd.orientation.is_none()
+                || d.orientation_error_rad <= self.cfg.orientation_tolerance_rad);
         out.status = if alpha == 0.0 && self.ramp >= 1.0 {
             Status::Held(HoldReason::SpeedZero)
         } else if converged {
@@ -546,7 +630,10 @@ impl DsController {
 
     fn validate(&self, input: &ControlInput) -> std::result::Result<(), Fault> {
         const NO_LINK: usize = usize::MAX;
-        let bad = |what| Fault::NonFinite { what, link: NO_LINK };
+        let bad = |what| Fault::NonFinite {
+            what,
+            link: NO_LINK,
+        };
         if !input.time.is_finite() {
             return Err(bad("time"));
         }

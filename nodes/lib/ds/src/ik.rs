@@ -53,9 +53,15 @@ pub struct LinkTask {
     pub obstacle_velocity: Vector3<f64>,
 }
 
+/// End-effector twist [v; w]: linear (m/s) then angular (rad/s) velocity, base frame.
+pub type Twist = SVector<f64, 6>;
+
 /// Angular error (rad, base frame) that rotates `current` onto `desired`: the rotation vector
 /// of `desired · current⁻¹`, shortest way round.
-pub fn orientation_error(current: &UnitQuaternion<f64>, desired: &UnitQuaternion<f64>) -> Vector3<f64> {
+pub fn orientation_error(
+    current: &UnitQuaternion<f64>,
+    desired: &UnitQuaternion<f64>,
+) -> Vector3<f64> {
     (desired * current.inverse()).scaled_axis()
 }
 
@@ -93,8 +99,8 @@ impl Ik {
         &self.cfg
     }
 
-    /// Joint velocity (rad/s, unsaturated) for end-effector linear velocity `v` (m/s) and
-    /// angular velocity `w` (rad/s) of link `tip` at its frame origin, with the optional
+    /// Joint velocity (rad/s, unsaturated) for the end-effector twist `twist` = [v; w] (linear
+    /// m/s, then angular rad/s) of link `tip` at its frame origin, with the optional
     /// null-space link task; `poses` from forward kinematics at the current q.
     ///
     /// Primary: q̇₁ = J† [v; w] (damped). Secondary (eq. 5.13): the closest link point x_l
@@ -110,14 +116,12 @@ impl Ik {
         model: &RobotModel,
         poses: &LinkPoses,
         tip: usize,
-        v: &Vector3<f64>,
-        w: &Vector3<f64>,
+        twist: &Twist,
         link_task: Option<&LinkTask>,
         report: &mut IkReport,
     ) -> JointVector {
         model.jacobian(poses, tip, &Point3::origin(), &mut self.jac);
         let pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
-        let twist = SVector::<f64, 6>::new(v.x, v.y, v.z, w.x, w.y, w.z);
         let q1 = pinv * twist;
         *report = IkReport::default();
         let Some(task) = link_task else {

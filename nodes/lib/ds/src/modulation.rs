@@ -54,7 +54,11 @@ pub fn modulation_matrix_in_basis(v: &Matrix3<f64>, d: f64, epsilon: f64) -> Mat
 /// Modulated velocity with a moving obstacle, eq. 5.8: ẋ = M f + (I − M) ẋ_O, where `f` is the
 /// (scaled) DS velocity and `obstacle_velocity` ẋ_O the velocity of the closest obstacle point
 /// (m/s). With ẋ_O = 0 this is eq. 5.4.
-pub fn modulate(m: &Matrix3<f64>, f: &Vector3<f64>, obstacle_velocity: &Vector3<f64>) -> Vector3<f64> {
+pub fn modulate(
+    m: &Matrix3<f64>,
+    f: &Vector3<f64>,
+    obstacle_velocity: &Vector3<f64>,
+) -> Vector3<f64> {
     m * f + obstacle_velocity - m * obstacle_velocity
 }
 
@@ -171,7 +175,10 @@ mod tests {
         ] {
             let n = Unit::new_normalize(n);
             let v = orthonormal_basis(&n);
-            assert!((v.transpose() * v - Matrix3::identity()).norm() < 1e-12, "{n:?}");
+            assert!(
+                (v.transpose() * v - Matrix3::identity()).norm() < 1e-12,
+                "{n:?}"
+            );
             assert!((v.column(0) - n.into_inner()).norm() < 1e-15);
             assert!((v.determinant() - 1.0).abs() < 1e-12);
         }

@@ -131,9 +131,11 @@ mod tests {
             Primitive::Linear(Linear { gain: -1.0 }).invalid_parameter(),
             Some(("gain", -1.0))
         );
-        assert!(Primitive::ConstantSpeed(ConstantSpeed::new(f64::NAN))
-            .invalid_parameter()
-            .is_some());
+        assert!(
+            Primitive::ConstantSpeed(ConstantSpeed::new(f64::NAN))
+                .invalid_parameter()
+                .is_some()
+        );
         assert_eq!(Primitive::Hold.invalid_parameter(), None);
     }
 }

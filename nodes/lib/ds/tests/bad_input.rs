@@ -62,13 +62,25 @@ fn nan_and_infinite_distances_are_rejected() {
         i.distances.count = 9;
         i.distances.links[8] = obstacle(f64::NAN, Vector3::x());
     });
-    assert_eq!(f, Fault::NonFinite { what: "distance", link: 8 });
+    assert_eq!(
+        f,
+        Fault::NonFinite {
+            what: "distance",
+            link: 8
+        }
+    );
     assert!(f.to_string().contains("distance"), "{f}");
     let f = rejected(|i| {
         i.distances.count = 9;
         i.distances.links[3] = obstacle(f64::INFINITY, Vector3::x());
     });
-    assert_eq!(f, Fault::NonFinite { what: "distance", link: 3 });
+    assert_eq!(
+        f,
+        Fault::NonFinite {
+            what: "distance",
+            link: 3
+        }
+    );
 }
 
 #[test]
@@ -77,7 +89,13 @@ fn bad_normals_are_rejected() {
         i.distances.count = 9;
         i.distances.links[5] = obstacle(0.1, Vector3::new(f64::NAN, 0.0, 1.0));
     });
-    assert_eq!(f, Fault::NonFinite { what: "normal", link: 5 });
+    assert_eq!(
+        f,
+        Fault::NonFinite {
+            what: "normal",
+            link: 5
+        }
+    );
     let f = rejected(|i| {
         i.distances.count = 9;
         i.distances.links[5] = obstacle(0.1, Vector3::zeros());
@@ -97,7 +115,8 @@ fn invalid_entries_are_ignored() {
         valid: false,
         ..obstacle(f64::NAN, Vector3::zeros())
     };
-    ctl.step(&input, &mut out).expect("invalid entries carry no data");
+    ctl.step(&input, &mut out)
+        .expect("invalid entries carry no data");
 }
 
 #[test]
@@ -105,9 +124,21 @@ fn goal_out_of_reach_and_bad_primitive_are_rejected() {
     let f = rejected(|i| i.command.goal = Vector3::new(3.0, 0.0, 0.5));
     assert!(matches!(f, Fault::GoalOutOfReach { .. }), "{f}");
     let f = rejected(|i| i.command.primitive = common::linear(-1.0));
-    assert_eq!(f, Fault::BadPrimitive { what: "gain", value: -1.0 });
+    assert_eq!(
+        f,
+        Fault::BadPrimitive {
+            what: "gain",
+            value: -1.0
+        }
+    );
     let f = rejected(|i| i.q[2] = f64::NAN);
-    assert_eq!(f, Fault::NonFinite { what: "q", link: usize::MAX });
+    assert_eq!(
+        f,
+        Fault::NonFinite {
+            what: "q",
+            link: usize::MAX
+        }
+    );
     let f = rejected(|i| {
         i.distances.count = 40;
     });
@@ -150,13 +181,27 @@ fn bad_config_is_named() {
     let mut cfg = ControllerConfig::default();
     cfg.modulation.epsilon = f64::NAN;
     let err = DsController::new(model.clone(), cfg).expect_err("NaN epsilon");
-    assert!(matches!(err, Error::Config { field: "modulation.epsilon", .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            Error::Config {
+                field: "modulation.epsilon",
+                ..
+            }
+        ),
+        "{err}"
+    );
     let mut cfg = ControllerConfig::default();
     cfg.scaling.interaction_speed = 0.5;
     let err = DsController::new(model.clone(), cfg).expect_err("interaction faster than far");
-    assert!(err.to_string().contains("scaling.interaction_speed"), "{err}");
-    let mut cfg = ControllerConfig::default();
-    cfg.stale_after_s = -1.0;
+    assert!(
+        err.to_string().contains("scaling.interaction_speed"),
+        "{err}"
+    );
+    let cfg = ControllerConfig {
+        stale_after_s: -1.0,
+        ..ControllerConfig::default()
+    };
     assert!(DsController::new(model, cfg).is_err());
 }
 
@@ -167,7 +212,8 @@ fn config_yaml_round_trip_and_unknown_fields() {
     let back: ControllerConfig = serde_yaml_ng::from_str(&text).expect("parse");
     assert_eq!(back, cfg);
     let partial: ControllerConfig =
-        serde_yaml_ng::from_str("stale_after_s: 0.05\nscaling:\n  far_speed: 0.25\n").expect("partial");
+        serde_yaml_ng::from_str("stale_after_s: 0.05\nscaling:\n  far_speed: 0.25\n")
+            .expect("partial");
     assert_eq!(partial.stale_after_s, 0.05);
     assert_eq!(partial.scaling.far_speed, 0.25);
     assert_eq!(partial.scaling.interaction_speed, 0.1);

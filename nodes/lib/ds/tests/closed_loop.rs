@@ -1,6 +1,8 @@
 //! Closed loop with the real LWR model: q += q̇ dt at 1 kHz reaches a Cartesian goal with a
 //! sphere in the straight path, never penetrating it (analytic distance of the link mesh
 //! vertices to the sphere), within the joint limits.
+// Joint loops index q, q̇ and the limits together.
+#![allow(clippy::needless_range_loop)]
 
 mod common;
 
@@ -16,7 +18,12 @@ struct Outcome {
     escape_steps: usize,
 }
 
-fn run(primitive: cowork_ds::Primitive, radius: f64, offset: Vector3<f64>, steps: usize) -> Outcome {
+fn run(
+    primitive: cowork_ds::Primitive,
+    radius: f64,
+    offset: Vector3<f64>,
+    steps: usize,
+) -> Outcome {
     let model = common::lwr();
     let points = common::link_points(&model, 1);
     let mut q = common::q_start();
@@ -40,16 +47,25 @@ fn run(primitive: cowork_ds::Primitive, radius: f64, offset: Vector3<f64>, steps
     for k in 0..steps {
         let t = k as f64 * dt;
         model.forward_kinematics(&q, &mut poses);
-        o.min_distance = o.min_distance.min(common::min_sphere_distance(&poses, &points, &centre, radius));
+        o.min_distance = o.min_distance.min(common::min_sphere_distance(
+            &poses, &points, &centre, radius,
+        ));
         let mut input = common::input(q, cmd, t);
-        input.distances = common::sphere_distances(&poses, &points, &centre, radius, &Vector3::zeros(), t);
+        input.distances =
+            common::sphere_distances(&poses, &points, &centre, radius, &Vector3::zeros(), t);
         ctl.step(&input, &mut out).expect("valid input");
         for i in 0..7 {
-            o.max_speed_ratio = o.max_speed_ratio.max(out.qdot[i].abs() / limits[i].velocity);
+            o.max_speed_ratio = o
+                .max_speed_ratio
+                .max(out.qdot[i].abs() / limits[i].velocity);
         }
         q += out.qdot * dt;
         for i in 0..7 {
-            assert!(limits[i].contains(q[i]), "joint {i} left its limits: {}", q[i]);
+            assert!(
+                limits[i].contains(q[i]),
+                "joint {i} left its limits: {}",
+                q[i]
+            );
         }
         o.final_error = out.diagnostics.goal_error_m;
         o.escape_steps += usize::from(out.diagnostics.escaping);
@@ -65,14 +81,27 @@ fn run(primitive: cowork_ds::Primitive, radius: f64, offset: Vector3<f64>, steps
 
 #[test]
 fn reaches_goal_around_a_sphere_without_penetration() {
-    let o = run(common::constant_speed(0.3), 0.08, Vector3::new(0.0, 0.0, 0.03), 10_000);
+    let o = run(
+        common::constant_speed(0.3),
+        0.08,
+        Vector3::new(0.0, 0.0, 0.03),
+        10_000,
+    );
     eprintln!(
         "constant speed: reached at {:?} s, min distance {:.4} m, final error {:.4} m, max |q̇|/limit {:.3}, escape steps {}",
         o.reached_at, o.min_distance, o.final_error, o.max_speed_ratio, o.escape_steps
     );
-    assert!(o.reached_at.is_some(), "goal not reached, error {} m", o.final_error);
+    assert!(
+        o.reached_at.is_some(),
+        "goal not reached, error {} m",
+        o.final_error
+    );
     assert!(o.final_error < 0.005);
-    assert!(o.min_distance > 0.0, "penetrated the sphere: {} m", o.min_distance);
+    assert!(
+        o.min_distance > 0.0,
+        "penetrated the sphere: {} m",
+        o.min_distance
+    );
     assert!(o.max_speed_ratio <= 1.0 + 1e-9);
 }
 
@@ -85,6 +114,14 @@ fn linear_ds_with_a_sphere_on_the_path_arrives() {
         "linear head-on: reached at {:?} s, min distance {:.4} m, final error {:.4} m, max |q̇|/limit {:.3}, escape steps {}",
         o.reached_at, o.min_distance, o.final_error, o.max_speed_ratio, o.escape_steps
     );
-    assert!(o.reached_at.is_some(), "goal not reached, error {} m", o.final_error);
-    assert!(o.min_distance > 0.0, "penetrated the sphere: {} m", o.min_distance);
+    assert!(
+        o.reached_at.is_some(),
+        "goal not reached, error {} m",
+        o.final_error
+    );
+    assert!(
+        o.min_distance > 0.0,
+        "penetrated the sphere: {} m",
+        o.min_distance
+    );
 }

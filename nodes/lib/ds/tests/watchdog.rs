@@ -4,9 +4,7 @@
 
 mod common;
 
-use cowork_ds::{
-    ControlOutput, ControllerConfig, DsController, Fault, HoldReason, Status, Stream,
-};
+use cowork_ds::{ControlOutput, ControllerConfig, DsController, Fault, HoldReason, Status, Stream};
 use nalgebra::Vector3;
 
 fn stream_loss(stream: Stream) {
@@ -43,7 +41,10 @@ fn stream_loss(stream: Stream) {
             }
         } else {
             let fault = res.expect_err("stale input must fault");
-            assert!(matches!(fault, Fault::Stale { stream: s, .. } if s == stream), "{fault:?}");
+            assert!(
+                matches!(fault, Fault::Stale { stream: s, .. } if s == stream),
+                "{fault:?}"
+            );
             assert!(matches!(out.status, Status::Held(HoldReason::Fault(_))));
             let speed = out.qdot.amax();
             let v0 = *speed_at_stale.get_or_insert(speed + cfg.brake_deceleration * dt);
@@ -83,10 +84,23 @@ fn human_stream_loss_stops_then_resumes() {
 fn never_received_data_is_stale() {
     let model = common::lwr();
     let mut ctl = DsController::new(model, ControllerConfig::default()).expect("config");
-    let mut input = common::input(common::q_start(), common::command(common::linear(1.0), Vector3::new(0.4, 0.0, 0.5)), 3.0);
+    let mut input = common::input(
+        common::q_start(),
+        common::command(common::linear(1.0), Vector3::new(0.4, 0.0, 0.5)),
+        3.0,
+    );
     input.distances = cowork_ds::Distances::NEVER;
     let mut out = ControlOutput::default();
     let err = ctl.step(&input, &mut out).expect_err("no distances yet");
-    assert!(matches!(err, Fault::Stale { stream: Stream::Distances, .. }), "{err}");
+    assert!(
+        matches!(
+            err,
+            Fault::Stale {
+                stream: Stream::Distances,
+                ..
+            }
+        ),
+        "{err}"
+    );
     assert_eq!(out.qdot.norm(), 0.0);
 }

@@ -10,7 +10,8 @@ use nalgebra::{Point3, Vector3};
 use std::path::PathBuf;
 
 pub fn lwr() -> RobotModel {
-    let urdf = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf");
+    let urdf =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf");
     RobotModel::from_urdf_file(urdf).expect("LWR URDF loads")
 }
 

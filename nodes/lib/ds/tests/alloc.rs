@@ -1,0 +1,124 @@
+//! `DsController::step` never touches the heap: 10 000 steps with obstacles at the end effector
+//! and a link, moving obstacles, the escape path, stale data (braking), bad input and hold
+//! commands allocate nothing.
+#![allow(unsafe_code)]
+
+mod common;
+
+use cowork_ds::{ControlOutput, ControllerConfig, DsController, LinkDistance, Primitive};
+use cowork_robot::LinkPoses;
+use nalgebra::{Point3, Vector3};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::hint::black_box;
+
+struct Counting;
+
+thread_local! {
+    // Counted per thread so the test harness's own threads do not disturb the count.
+    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards to the system allocator; only bumps a thread-local counter besides.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn allocations() -> usize {
+    ALLOCATIONS.with(Cell::get)
+}
+
+#[test]
+fn ten_thousand_steps_allocate_nothing() {
+    let model = common::lwr();
+    let mut q = common::q_start();
+    let goal = common::tip_position(&model, &q) + Vector3::new(0.05, 0.35, -0.05);
+    let mut ctl = DsController::new(model.clone(), ControllerConfig::default()).expect("config");
+    let points = common::link_points(&model, 4);
+    let mut poses = LinkPoses::new();
+    // Inputs prepared beforehand (the test's own Vec allocations stay outside the count).
+    let mut inputs = Vec::with_capacity(10_000);
+    for k in 0..10_000 {
+        let t = k as f64 * 1e-3;
+        let mut input = common::input(q, common::command(common::constant_speed(0.3), goal), t);
+        model.forward_kinematics(&q, &mut poses);
+        let centre = Point3::from(goal + Vector3::new(0.0, -0.15 + 0.1 * (t * 2.0).sin(), 0.0));
+        input.distances = common::sphere_distances(
+            &poses,
+            &points,
+            &centre,
+            0.05,
+            &Vector3::new(0.0, 0.2, 0.0),
+            t,
+        );
+        match k % 1000 {
+            // Stale distances: braking path.
+            100..=250 => input.distances.stamp = t - 0.5,
+            // Head-on contact at the end effector: escape path.
+            300..=320 => {
+                let tip = model.tip_link();
+                let x = common::tip_position(&model, &q);
+                let f = (goal - x).normalize();
+                input.distances.links[tip] = LinkDistance {
+                    valid: true,
+                    distance: 0.0,
+                    robot_point: Point3::from(x),
+                    obstacle_point: Point3::from(x),
+                    normal: -f,
+                    obstacle_velocity: Vector3::zeros(),
+                };
+            }
+            400 => input.distances.links[3].normal = Vector3::zeros(),
+            500..=520 => input.command.primitive = Primitive::Hold,
+            600 => input.command.id = 2,
+            700..=710 => input.command.goal = Vector3::new(9.0, 0.0, 0.0),
+            _ => {}
+        }
+        q += JointVectorStep::small(k);
+        inputs.push(input);
+    }
+    let mut out = ControlOutput::default();
+    let mut faults = 0usize;
+    let mut escapes = 0usize;
+
+    // The counter itself must see allocations, or the test could never fail.
+    let before = allocations();
+    black_box(vec![1u8; 16]);
+    assert_eq!(allocations(), before + 1);
+
+    let before = allocations();
+    for input in &inputs {
+        if ctl.step(input, &mut out).is_err() {
+            faults += 1;
+        }
+        escapes += usize::from(out.diagnostics.escaping);
+        black_box(&out);
+    }
+    let after = allocations();
+    assert_eq!(after - before, 0, "allocations in 10 000 control steps");
+    assert!(faults > 1000, "fault paths exercised: {faults}");
+    assert!(escapes > 0, "escape path exercised");
+}
+
+/// A small deterministic joint drift so the configurations vary along the run.
+struct JointVectorStep;
+
+impl JointVectorStep {
+    fn small(k: usize) -> cowork_robot::JointVector {
+        let s = (k as f64 * 0.003).sin() * 1e-4;
+        cowork_robot::JointVector::from_element(s)
+    }
+}
