@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# cowork_bag against PyPI mcap + mcap-ros2-support:
+#  (a) a bag written by cowork_bag (JointState, 32FC1 Image, CameraInfo, TFMessage, String,
+#      cowork_msgs HumanState and Skeleton) is decoded message by message by
+#      mcap_ros2.reader.read_ros2_messages and compared with the values written;
+#  (b) a bag written by mcap_ros2.writer.Writer (16UC1 and 32FC1 depth Images, CameraInfo,
+#      JointState) is read by cowork_bag (schema check included) with the same count and values.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+: "${VENV:=.venv-crosscheck}"
+target="${CARGO_TARGET_DIR:-target}"
+# A no-op when run.sh has already built the examples.
+cargo build --release -p cowork_bag --example write_sample_bag --example bag_to_json 2>&1 | tail -n 1
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+echo "(a) cowork_bag writes, mcap_ros2 reads"
+"$target/release/examples/write_sample_bag" "$work/ours.mcap" --expect "$work/ours.jsonl" --frames 20
+"$VENV/bin/python" tests/crosscheck/check_bag.py read-ours "$work/ours.mcap" "$work/ours.jsonl"
+
+echo "(b) mcap_ros2 writes, cowork_bag reads"
+"$VENV/bin/python" tests/crosscheck/check_bag.py write-theirs "$work/theirs.mcap" "$work/theirs.jsonl"
+"$target/release/examples/bag_to_json" "$work/theirs.mcap" > "$work/got.jsonl"
+"$VENV/bin/python" tests/crosscheck/check_bag.py compare "$work/theirs.jsonl" "$work/got.jsonl"
+echo "bag cross-check passed"
