@@ -18,6 +18,7 @@ from cyclonedds.idl.types import float64, int32, sequence, uint32
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
+from cyclonedds.util import duration
 
 
 @dataclass
@@ -69,7 +70,7 @@ def main():
     domain = int(sys.argv[1])
     # ROS 2 (rmw_cyclonedds / rmw_fastrtps) uses classic CDR (XCDR1).
     qos = Qos(
-        Policy.Reliability.Reliable(max_blocking_time=0.1),
+        Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
         Policy.History.KeepLast(10),
         Policy.DataRepresentation(use_cdrv0_representation=True),
     )

@@ -30,7 +30,7 @@ pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};
 /// Sets up `tracing` logging to stderr, filtered by `RUST_LOG` (default `info`).
 pub fn init_logging() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,rustdds=error,ros2_client=warn"));
     // A second call (tests) is harmless.
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
