@@ -5,7 +5,8 @@ use crate::error::{Error, Fault, Result, Stream};
 use crate::goal::{Reach, adapted_velocity};
 use crate::ik::{Ik, IkConfig, IkReport, LinkTask, Saturation, Twist, orientation_error, saturate};
 use crate::modulation::{
-    EPSILON, Escape, EscapeConfig, modulate, modulation_matrix_in_basis, orthonormal_basis,
+    EPSILON, Escape, EscapeConfig, influence_weight, modulate, orthonormal_basis,
+    weighted_eigenvalues, weighted_modulation_matrix_in_basis,
 };
 use crate::primitive::Primitive;
 use crate::scaling::{HumanState, ScalingConfig};
@@ -18,6 +19,12 @@ use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 pub struct ModulationConfig {
     /// ε of eq. 5.6, in (0, 1).
     pub epsilon: f64,
+    /// Up to this obstacle distance eq. 5.6 applies unchanged (m).
+    pub full_distance: f64,
+    /// Beyond this distance an obstacle is ignored; in between M fades to I smoothly (m,
+    /// > `full_distance`; `.inf` keeps eq. 5.6 at every distance, as the thesis states it). See
+    /// [`influence_weight`](crate::modulation::influence_weight).
+    pub influence_distance: f64,
     /// Modulate the end-effector DS with its closest obstacle.
     pub end_effector: bool,
     /// Null-space avoidance of the closest non end-effector link point.
@@ -28,6 +35,8 @@ impl Default for ModulationConfig {
     fn default() -> Self {
         Self {
             epsilon: EPSILON,
+            full_distance: 0.5,
+            influence_distance: 1.0,
             end_effector: true,
             links: true,
         }
@@ -518,21 +527,26 @@ impl DsController {
         let f = adapted_velocity(&cmd.primitive, &x, &cmd.goal) * alpha;
 
         // End effector: closest obstacle of the links rigidly moved by the last joint.
-        let eps = self.cfg.modulation.epsilon;
+        let mc = &self.cfg.modulation;
+        let eps = mc.epsilon;
+        let weight = |d: f64| influence_weight(d, mc.full_distance, mc.influence_distance);
         let dist = &input.distances;
         let mut xdot = f;
         if self.cfg.modulation.end_effector && cmd.end_effector_avoidance {
-            if let Some(i) = closest(dist, self.ee_first_link, dist.count) {
+            let found = closest(dist, self.ee_first_link, dist.count)
+                .filter(|&i| weight(dist.links[i].distance) > 0.0);
+            if let Some(i) = found {
                 let o = &dist.links[i];
+                let wgt = weight(o.distance);
                 let n = Unit::new_normalize(o.normal);
                 let v = orthonormal_basis(&n);
-                let m = modulation_matrix_in_basis(&v, o.distance, eps);
+                let m = weighted_modulation_matrix_in_basis(&v, o.distance, eps, wgt);
                 let modulated = modulate(&m, &f, &o.obstacle_velocity);
                 xdot = self
                     .escape
                     .step(&self.cfg.escape, &v, o.distance, &f, &modulated);
                 d.ee_distance_m = o.distance;
-                d.ee_lambda_normal = crate::modulation::eigenvalues(o.distance, eps).x;
+                d.ee_lambda_normal = weighted_eigenvalues(o.distance, eps, wgt).x;
                 d.escaping = self.escape.active();
             } else {
                 self.escape.reset();
@@ -550,13 +564,21 @@ impl DsController {
         let mut task = None;
         if self.cfg.modulation.links {
             let first_moving = self.model.joint_link(0);
-            if let Some(i) = closest(dist, first_moving, self.ee_first_link.min(dist.count)) {
+            let found = closest(dist, first_moving, self.ee_first_link.min(dist.count))
+                .filter(|&i| weight(dist.links[i].distance) > 0.0);
+            if let Some(i) = found {
                 let o = &dist.links[i];
                 let n = Unit::new_normalize(o.normal);
+                let v = orthonormal_basis(&n);
                 task = Some(LinkTask {
                     link: i,
                     point: o.robot_point,
-                    modulation: modulation_matrix_in_basis(&orthonormal_basis(&n), o.distance, eps),
+                    modulation: weighted_modulation_matrix_in_basis(
+                        &v,
+                        o.distance,
+                        eps,
+                        weight(o.distance),
+                    ),
                     obstacle_velocity: o.obstacle_velocity,
                 });
                 d.avoid_link = Some(i);

@@ -51,6 +51,40 @@ pub fn modulation_matrix_in_basis(v: &Matrix3<f64>, d: f64, epsilon: f64) -> Mat
     v * Matrix3::from_diagonal(&e) * v.transpose()
 }
 
+/// Weight w(D) ∈ [0, 1] that fades the modulation out with distance: 1 up to `full` (m), a
+/// cosine ramp to 0 at `zero` (m), 0 beyond. `zero` = ∞ gives 1 everywhere (eq. 5.6 as is).
+///
+/// Why: eq. 5.6 modulates at any distance (λ₁ = 0.5 at 1 m), so an obstacle that has passed
+/// and flies away keeps dragging the robot through the (I − M) ẋ_O term of eq. 5.8, and a far
+/// wall slows every motion. Fading M to I keeps M symmetric positive definite (eigenvalues
+/// 1 + w (λ − 1) lie between λ and 1), so the equilibria are untouched, and keeps M continuous
+/// in D, unlike a hard cut-off.
+pub fn influence_weight(d: f64, full: f64, zero: f64) -> f64 {
+    if d <= full {
+        1.0
+    } else if d >= zero {
+        0.0
+    } else {
+        let s = (d - full) / (zero - full);
+        0.5 * (1.0 + (std::f64::consts::PI * s).cos())
+    }
+}
+
+/// [`eigenvalues`] faded by weight `w` ∈ [0, 1]: 1 + w (λ − 1).
+pub fn weighted_eigenvalues(d: f64, epsilon: f64, w: f64) -> Vector3<f64> {
+    eigenvalues(d, epsilon).map(|l| 1.0 + w * (l - 1.0))
+}
+
+/// M = V E_w Vᵀ with the faded eigenvalues of [`weighted_eigenvalues`].
+pub fn weighted_modulation_matrix_in_basis(
+    v: &Matrix3<f64>,
+    d: f64,
+    epsilon: f64,
+    w: f64,
+) -> Matrix3<f64> {
+    v * Matrix3::from_diagonal(&weighted_eigenvalues(d, epsilon, w)) * v.transpose()
+}
+
 /// Modulated velocity with a moving obstacle, eq. 5.8: ẋ = M f + (I − M) ẋ_O, where `f` is the
 /// (scaled) DS velocity and `obstacle_velocity` ẋ_O the velocity of the closest obstacle point
 /// (m/s). With ẋ_O = 0 this is eq. 5.4.
@@ -182,6 +216,18 @@ mod tests {
             assert!((v.column(0) - n.into_inner()).norm() < 1e-15);
             assert!((v.determinant() - 1.0).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn influence_weight_is_continuous_and_bounded() {
+        assert_eq!(influence_weight(0.2, 0.5, 1.0), 1.0);
+        assert_eq!(influence_weight(1.2, 0.5, 1.0), 0.0);
+        assert!((influence_weight(0.75, 0.5, 1.0) - 0.5).abs() < 1e-12);
+        assert!((influence_weight(0.5 + 1e-9, 0.5, 1.0) - 1.0).abs() < 1e-9);
+        assert!(influence_weight(1.0 - 1e-9, 0.5, 1.0) < 1e-9);
+        assert_eq!(influence_weight(1e6, 0.5, f64::INFINITY), 1.0);
+        let l = weighted_eigenvalues(0.0, EPSILON, 0.0);
+        assert_eq!(l, Vector3::new(1.0, 1.0, 1.0));
     }
 
     #[test]
