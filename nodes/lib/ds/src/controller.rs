@@ -21,9 +21,9 @@ pub struct ModulationConfig {
     pub epsilon: f64,
     /// Up to this obstacle distance eq. 5.6 applies unchanged (m).
     pub full_distance: f64,
-    /// Beyond this distance an obstacle is ignored; in between M fades to I smoothly (m,
-    /// > `full_distance`; `.inf` keeps eq. 5.6 at every distance, as the thesis states it). See
-    /// [`influence_weight`](crate::modulation::influence_weight).
+    /// Beyond this distance an obstacle is ignored; in between M fades to I smoothly (m, must
+    /// exceed `full_distance`; `.inf` keeps eq. 5.6 at every distance, as the thesis states
+    /// it). See [`influence_weight`](crate::modulation::influence_weight).
     pub influence_distance: f64,
     /// Modulate the end-effector DS with its closest obstacle.
     pub end_effector: bool,

@@ -1,0 +1,152 @@
+//! Controller-level behaviour: goal adaptation (eq. 5.2), velocity scaling (eq. 5.3, Sec.
+//! 5.1.3 speeds), Algorithm 5 at the end effector, orientation hold / drive.
+
+mod common;
+
+use cowork_ds::{
+    ControlInput, ControlOutput, ControllerConfig, DsController, HumanMode, LinkDistance, Status,
+};
+use cowork_robot::JointVector;
+use nalgebra::{Point3, UnitQuaternion, Vector3};
+
+/// Runs `steps` closed-loop steps, calling `edit` on each input; returns the final q.
+fn run(
+    ctl: &mut DsController,
+    q0: JointVector,
+    base: ControlInput,
+    steps: usize,
+    mut edit: impl FnMut(usize, &mut ControlInput),
+    mut check: impl FnMut(usize, &ControlOutput),
+) -> JointVector {
+    let mut q = q0;
+    let mut out = ControlOutput::default();
+    let dt = ctl.config().period_s;
+    for k in 0..steps {
+        let t = k as f64 * dt;
+        let mut input = ControlInput { time: t, q, ..base };
+        input.distances.stamp = t;
+        input.human.stamp = t;
+        edit(k, &mut input);
+        ctl.step(&input, &mut out).expect("valid input");
+        check(k, &out);
+        q += out.qdot * dt;
+    }
+    q
+}
+
+#[test]
+fn goal_change_mid_motion_converges_to_the_new_goal() {
+    let model = common::lwr();
+    let q0 = common::q_start();
+    let x0 = common::tip_position(&model, &q0);
+    let g1 = x0 + Vector3::new(0.0, 0.3, 0.0);
+    let g2 = x0 + Vector3::new(-0.1, -0.2, 0.1);
+    let mut ctl = DsController::new(model.clone(), ControllerConfig::default()).unwrap();
+    let base = common::input(q0, common::command(common::linear(3.0), g1), 0.0);
+    let q = run(
+        &mut ctl,
+        q0,
+        base,
+        4000,
+        |k, i| {
+            if k >= 500 {
+                i.command.goal = g2;
+            }
+        },
+        |_, _| {},
+    );
+    let err = (common::tip_position(&model, &q) - g2).norm();
+    assert!(err < 2e-3, "final error to the new goal {err} m");
+}
+
+#[test]
+fn speed_follows_the_person_far_interaction_stop() {
+    let model = common::lwr();
+    let q0 = common::q_start();
+    let x0 = common::tip_position(&model, &q0);
+    let goal = x0 + Vector3::new(0.0, 0.5, -0.1);
+    let mut ctl = DsController::new(model.clone(), ControllerConfig::default()).unwrap();
+    let base = common::input(q0, common::command(common::constant_speed(0.3), goal), 0.0);
+    let mut speeds = [0.0f64; 3];
+    run(
+        &mut ctl,
+        q0,
+        base,
+        1500,
+        |k, i| {
+            if (500..1000).contains(&k) {
+                i.human.state.present = true;
+                i.human.state.mode = HumanMode::Interaction;
+            } else if k >= 1000 {
+                i.human.state.stopped = true;
+            }
+        },
+        |k, out| match k {
+            499 => speeds[0] = out.diagnostics.ee_velocity.norm(),
+            999 => speeds[1] = out.diagnostics.ee_velocity.norm(),
+            1499 => {
+                speeds[2] = out.diagnostics.ee_velocity.norm();
+                assert!(matches!(out.status, Status::Held(_)));
+            }
+            _ => {}
+        },
+    );
+    eprintln!("commanded EE speed far / interaction / stop: {speeds:?} m/s");
+    assert!((speeds[0] - 0.3).abs() < 0.01, "{speeds:?}");
+    assert!((speeds[1] - 0.1).abs() < 0.005, "{speeds:?}");
+    assert_eq!(speeds[2], 0.0);
+}
+
+#[test]
+fn end_effector_stuck_head_on_escapes_tangentially() {
+    let model = common::lwr();
+    let q0 = common::q_start();
+    let x0 = common::tip_position(&model, &q0);
+    let goal = x0 + Vector3::new(0.0, 0.4, 0.0);
+    let cfg = ControllerConfig::default();
+    let mut ctl = DsController::new(model.clone(), cfg).unwrap();
+    let mut input = common::input(q0, common::command(common::constant_speed(0.3), goal), 0.0);
+    input.distances.count = model.link_count();
+    // In contact, the obstacle's normal exactly against the DS: a spurious attractor.
+    input.distances.links[model.tip_link()] = LinkDistance {
+        valid: true,
+        distance: 0.0,
+        robot_point: Point3::from(x0),
+        obstacle_point: Point3::from(x0),
+        normal: Vector3::new(0.0, -1.0, 0.0),
+        obstacle_velocity: Vector3::zeros(),
+    };
+    let mut out = ControlOutput::default();
+    // Past the resume ramp so the DS speed is full.
+    for k in 0..300 {
+        input.time = k as f64 * 1e-3;
+        input.distances.stamp = input.time;
+        input.human.stamp = input.time;
+        ctl.step(&input, &mut out).unwrap();
+    }
+    assert!(out.diagnostics.escaping);
+    let v = out.diagnostics.ee_velocity;
+    assert!(v.y.abs() < 1e-4, "no motion into the obstacle: {v}");
+    assert!(
+        (v.norm() - cfg.escape.perturbation_speed).abs() < 1e-3,
+        "{v}"
+    );
+}
+
+#[test]
+fn driven_orientation_converges() {
+    let model = common::lwr();
+    let q0 = common::q_start();
+    let pose = model.link_pose(&q0, model.tip_link());
+    let target = UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.4)) * pose.rotation;
+    let mut ctl = DsController::new(model.clone(), ControllerConfig::default()).unwrap();
+    let mut cmd = common::command(common::linear(2.0), pose.translation.vector);
+    cmd.orientation = Some(target);
+    let base = common::input(q0, cmd, 0.0);
+    let mut last = Status::Running;
+    let q = run(&mut ctl, q0, base, 3000, |_, _| {}, |_, o| last = o.status);
+    let end = model.link_pose(&q, model.tip_link());
+    assert!(end.rotation.angle_to(&target) < 0.02);
+    assert!((end.translation.vector - pose.translation.vector).norm() < 2e-3);
+    assert_eq!(last, Status::Converged);
+}
