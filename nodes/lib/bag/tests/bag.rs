@@ -480,3 +480,47 @@ fn bad_images_are_named_by_topic() {
         .unwrap_or_default();
     assert!(e.contains("step 16 B is less than width 8"), "{e}");
 }
+
+#[test]
+fn overlapping_chunks_are_merged_into_log_time_order() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("overlap.mcap");
+    let mut w = BagWriter::create(&path)?;
+    let img = w.add_channel::<Image>("/camera/depth/image_raw")?;
+    let speech = w.add_channel::<RosString>("/speech_command")?;
+    // A 1.2 MB frame fills a chunk, so the earlier-stamped messages after it land in later
+    // chunks whose time ranges overlap the first one's.
+    w.write(img, 2_000, 2_000, &depth_image(2_000, 640, 480))?;
+    w.write(
+        speech,
+        1_000,
+        1_000,
+        &RosString {
+            data: "teach".into(),
+        },
+    )?;
+    w.write(img, 4_000, 4_000, &depth_image(4_000, 640, 480))?;
+    w.write(
+        speech,
+        3_000,
+        3_000,
+        &RosString {
+            data: "done".into(),
+        },
+    )?;
+    w.write(
+        speech,
+        1_500,
+        1_500,
+        &RosString {
+            data: "stop".into(),
+        },
+    )?;
+    w.finish()?;
+    let times: Vec<u64> = BagReader::open(&path)?
+        .messages()
+        .map(|m| m.map(|m| m.log_time_ns))
+        .collect::<Result<_, _>>()?;
+    assert_eq!(times, [1_000, 1_500, 2_000, 3_000, 4_000]);
+    Ok(())
+}
