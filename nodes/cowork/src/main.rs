@@ -26,6 +26,18 @@ enum Command {
     /// Attentional supervisor: run on an event script, show the working memory.
     #[command(subcommand)]
     Supervisor(cmd::supervisor::SupervisorCommand),
+    /// Motion primitives: fit DMP / GMR / C-GMR / HMM from CSV demonstrations, roll them out.
+    #[command(subcommand)]
+    Learn(cmd::learn::LearnCommand),
+    /// Benchmarks that print tables.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum BenchCommand {
+    /// GMR vs C-GMR on the LASA handwriting set (data exported by tests/crosscheck/lasa_export.py).
+    Lasa(cmd::bench_lasa::BenchLasaArgs),
 }
 
 fn main() -> Result<()> {
@@ -36,5 +48,7 @@ fn main() -> Result<()> {
         Command::Say(a) => cmd::say::run(a),
         Command::Topic(c) => cmd::topic::run(c),
         Command::Supervisor(c) => cmd::supervisor::run(c),
+        Command::Learn(c) => cmd::learn::run(c),
+        Command::Bench(BenchCommand::Lasa(a)) => cmd::bench_lasa::run(a),
     }
 }

@@ -1,5 +1,7 @@
 //! One module per top-level subcommand.
 
+pub mod bench_lasa;
+pub mod learn;
 pub mod robot;
 pub mod say;
 pub mod supervisor;
