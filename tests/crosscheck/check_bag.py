@@ -7,6 +7,8 @@
                                             (depth Image 16UC1 and 32FC1, CameraInfo, JointState)
                                             and the values written
   check_bag.py compare EXPECT.jsonl GOT.jsonl  compare cowork_bag's JSON dump with the values
+  check_bag.py compare-prefix EXPECT.jsonl GOT.jsonl  the same for a truncated copy: GOT must be a
+                                            non-empty proper prefix of EXPECT
 
 Exits non-zero on any mismatch; prints what it compared.
 """
@@ -141,7 +143,8 @@ def write_theirs(bag, expect):
     width, height = 8, 6
     rows = []
     with open(bag, "wb") as f:
-        writer = Writer(f)
+        # Small chunks, so a truncated copy still holds whole chunks to recover.
+        writer = Writer(f, chunk_size=4096)
         image = writer.register_msgdef("sensor_msgs/msg/Image", IMAGE)
         info = writer.register_msgdef("sensor_msgs/msg/CameraInfo", CAMERA_INFO)
         joints = writer.register_msgdef("sensor_msgs/msg/JointState", JOINT_STATE)
@@ -186,6 +189,11 @@ def main():
         read_ours(sys.argv[2], sys.argv[3])
     elif mode == "write-theirs":
         write_theirs(sys.argv[2], sys.argv[3])
+    elif mode == "compare-prefix":
+        expected, got = load(sys.argv[2]), load(sys.argv[3])
+        if not 0 < len(got) < len(expected):
+            sys.exit(f"FAIL truncated bag: recovered {len(got)} of {len(expected)} messages")
+        compare_lists(expected[: len(got)], got, "cowork_bag recovering a truncated copy of mcap_ros2's bag")
     elif mode == "compare":
         compare_lists(load(sys.argv[2]), load(sys.argv[3]), "cowork_bag reading mcap_ros2's bag")
     else:

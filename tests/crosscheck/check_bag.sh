@@ -4,7 +4,8 @@
 #      cowork_msgs HumanState and Skeleton) is decoded message by message by
 #      mcap_ros2.reader.read_ros2_messages and compared with the values written;
 #  (b) a bag written by mcap_ros2.writer.Writer (16UC1 and 32FC1 depth Images, CameraInfo,
-#      JointState) is read by cowork_bag (schema check included) with the same count and values.
+#      JointState) is read by cowork_bag (schema check included) with the same count and values;
+#  (c) a copy of (b) cut at 60 % is refused with the byte offset and its readable prefix recovered.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
@@ -22,4 +23,12 @@ echo "(b) mcap_ros2 writes, cowork_bag reads"
 "$VENV/bin/python" tests/crosscheck/check_bag.py write-theirs "$work/theirs.mcap" "$work/theirs.jsonl"
 "$target/release/examples/bag_to_json" "$work/theirs.mcap" > "$work/got.jsonl"
 "$VENV/bin/python" tests/crosscheck/check_bag.py compare "$work/theirs.jsonl" "$work/got.jsonl"
+
+echo "(c) cowork_bag recovers a truncated copy of mcap_ros2's bag"
+size=$(stat -c %s "$work/theirs.mcap")
+head -c $(( size * 6 / 10 )) "$work/theirs.mcap" > "$work/cut.mcap"
+"$target/release/examples/bag_to_json" "$work/cut.mcap" > "$work/cut.jsonl" 2> "$work/cut.err"
+grep -q "truncated at byte offset" "$work/cut.err" || { echo "FAIL: no truncation reported"; cat "$work/cut.err"; exit 1; }
+sed 's/^/  reported: /' "$work/cut.err"
+"$VENV/bin/python" tests/crosscheck/check_bag.py compare-prefix "$work/theirs.jsonl" "$work/cut.jsonl"
 echo "bag cross-check passed"
