@@ -253,10 +253,13 @@ impl BagInfo {
 
 /// Reads an MCAP bag held in memory.
 ///
-/// [`open`](Self::open) refuses a damaged file with an error naming the file and the byte
-/// offset; [`open_recoverable`](Self::open_recoverable) accepts it, remembers the damage
-/// ([`damage`](Self::damage)) and reads every message before it (and after a damaged chunk
-/// whose length is intact). [`messages`](Self::messages) yields messages in log-time order.
+/// [`open`](Self::open) walks the record structure and refuses a truncated file, a record that
+/// does not parse or a bad summary with an error naming the file and the byte offset;
+/// [`open_recoverable`](Self::open_recoverable) accepts it, remembers the damage
+/// ([`damage`](Self::damage)) and reads every message before it. Chunks are decompressed (and
+/// their CRC checked) only while iterating: a damaged chunk is an `Err` item naming its offset,
+/// and iteration goes on with the next chunk. [`messages`](Self::messages) yields messages in
+/// log-time order. The whole file is held in memory.
 #[derive(Debug)]
 pub struct BagReader {
     path: PathBuf,
