@@ -29,6 +29,9 @@ enum Command {
     /// Motion primitives: fit DMP / GMR / C-GMR / HMM from CSV demonstrations, roll them out.
     #[command(subcommand)]
     Learn(cmd::learn::LearnCommand),
+    /// MCAP bags (ROS 2 profile): info.
+    #[command(subcommand)]
+    Bag(cmd::bag::BagCommand),
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -49,6 +52,7 @@ fn main() -> Result<()> {
         Command::Topic(c) => cmd::topic::run(c),
         Command::Supervisor(c) => cmd::supervisor::run(c),
         Command::Learn(c) => cmd::learn::run(c),
+        Command::Bag(c) => cmd::bag::run(c),
         Command::Bench(BenchCommand::Lasa(a)) => cmd::bench_lasa::run(a),
     }
 }

@@ -1,5 +1,6 @@
 //! One module per top-level subcommand.
 
+pub mod bag;
 pub mod bench_lasa;
 pub mod learn;
 pub mod robot;

@@ -27,10 +27,16 @@ pub mod shutdown;
 
 pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};
 
-/// Sets up `tracing` logging to stderr, filtered by `RUST_LOG` (default `info`).
+/// Default log filter: our own `info`; RustDDS and ros2-client only when something is really
+/// wrong (they report normal discovery races, e.g. a matched count asked before the node's own
+/// writer is in its graph cache, as errors). `RUST_LOG` overrides it.
+pub const DEFAULT_LOG_FILTER: &str =
+    "info,rustdds=error,ros2_client=error,ros2_client::node=off,ros2_client::distributions=off";
+
+/// Sets up `tracing` logging to stderr, filtered by `RUST_LOG` (default [`DEFAULT_LOG_FILTER`]).
 pub fn init_logging() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,rustdds=error,ros2_client=warn"));
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(DEFAULT_LOG_FILTER));
     // A second call (tests) is harmless.
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
