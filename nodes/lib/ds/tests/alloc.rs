@@ -1,45 +1,18 @@
 //! `DsController::step` never touches the heap: 10 000 steps with obstacles at the end effector
 //! and a link, moving obstacles, the escape path, stale data (braking), bad input and hold
 //! commands allocate nothing.
-#![allow(unsafe_code)]
 
 mod common;
 
 use cowork_ds::{ControlOutput, ControllerConfig, DsController, LinkDistance, Primitive};
 use cowork_robot::LinkPoses;
 use nalgebra::{Point3, Vector3};
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::hint::black_box;
 
-struct Counting;
-
-thread_local! {
-    // Counted per thread so the test harness's own threads do not disturb the count.
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; only bumps a thread-local counter besides.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: cowork_testkit::CountingAllocator = cowork_testkit::CountingAllocator;
 
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
+use cowork_testkit::allocations;
 
 #[test]
 fn ten_thousand_steps_allocate_nothing() {

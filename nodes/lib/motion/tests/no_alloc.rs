@@ -1,31 +1,12 @@
 //! The per-step evaluation paths (GMR query, GMR-DS velocity, C-GMR control step) must not touch
 //! the heap: counted with a wrapping global allocator.
-#![allow(unsafe_code)]
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use cowork_motion::cgmr::Components;
 use cowork_motion::{Cgmr, CgmrConfig, Demonstration, DsPolicy, EmConfig, FirstOrderDs};
 
-struct Counting;
-static ALLOCS: AtomicUsize = AtomicUsize::new(0);
-
-// SAFETY: forwards to the system allocator unchanged; only counts calls.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.fetch_add(1, Ordering::Relaxed);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: cowork_testkit::CountingAllocator = cowork_testkit::CountingAllocator;
 
 #[test]
 fn evaluation_paths_do_not_allocate() {
@@ -50,7 +31,7 @@ fn evaluation_paths_do_not_allocate() {
     runner.reset(&[1.0, 1.0]).expect("reset");
     let mut v = [0.0; 2];
     let mut x = [2.0, -1.0];
-    let before = ALLOCS.load(Ordering::Relaxed);
+    let before = cowork_testkit::allocations();
     for _ in 0..1000 {
         m.ds.velocity(&x, &mut v).expect("gmr");
         m.ds.gmr.predict(&x, &mut v).expect("predict");
@@ -58,7 +39,7 @@ fn evaluation_paths_do_not_allocate() {
         x[0] += 0.001 * v[0];
         x[1] += 0.001 * v[1];
     }
-    let after = ALLOCS.load(Ordering::Relaxed);
+    let after = cowork_testkit::allocations();
     assert_eq!(
         after - before,
         0,

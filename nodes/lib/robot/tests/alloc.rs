@@ -1,6 +1,5 @@
 //! The per-call kinematics never touch the heap: 10 000 rounds of FK + Jacobian + damped
 //! pseudo-inverse (+ position Jacobian, its pseudo-inverse and the projector) allocate nothing.
-#![allow(unsafe_code)]
 
 mod common;
 
@@ -9,38 +8,12 @@ use cowork_robot::{
     null_space_projector,
 };
 use nalgebra::Point3;
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
 use std::hint::black_box;
 
-struct Counting;
-
-thread_local! {
-    // Counted per thread so the test harness's own threads do not disturb the count.
-    static ALLOCATIONS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; only bumps a thread-local counter besides.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: cowork_testkit::CountingAllocator = cowork_testkit::CountingAllocator;
 
-fn allocations() -> usize {
-    ALLOCATIONS.with(Cell::get)
-}
+use cowork_testkit::allocations;
 
 #[test]
 fn kinematics_per_call_allocate_nothing() {

@@ -1,32 +1,11 @@
 //! The 1 kHz simulator step allocates nothing: integration, limits, FK, admittance, held object.
-#![allow(unsafe_code)] // the counting allocator below
-
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use cowork_robot::RobotModel;
 use cowork_sim::{Scene, SimParams, Simulator, Wrench};
 use nalgebra::Vector3;
 
-struct Counting;
-
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-// SAFETY: forwards to the system allocator and only counts calls.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        // SAFETY: same contract as the caller's.
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        // SAFETY: same contract as the caller's.
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
 #[global_allocator]
-static GLOBAL: Counting = Counting;
+static GLOBAL: cowork_testkit::CountingAllocator = cowork_testkit::CountingAllocator;
 
 #[test]
 fn ten_thousand_steps_allocate_nothing() {
@@ -41,11 +20,11 @@ fn ten_thousand_steps_allocate_nothing() {
     assert_eq!(sim_holding.command_gripper(true), Some("cup"));
 
     // The counter sees allocations at all.
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = cowork_testkit::allocations();
     drop(std::hint::black_box(vec![1u8; 16]));
-    assert!(ALLOCATIONS.load(Ordering::Relaxed) > before);
+    assert!(cowork_testkit::allocations() > before);
 
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let before = cowork_testkit::allocations();
     for i in 0..10_000 {
         let s = (i as f64 * 1e-3).sin();
         sim.set_velocity_command(&[0.3 * s, -0.2, 0.1, 0.2 * s, 0.0, -0.1, 0.4]).unwrap();
@@ -55,6 +34,6 @@ fn ten_thousand_steps_allocate_nothing() {
             .unwrap();
         sim_holding.step();
     }
-    let count = ALLOCATIONS.load(Ordering::Relaxed) - before;
+    let count = cowork_testkit::allocations() - before;
     assert_eq!(count, 0, "{count} allocations in 20 000 steps");
 }
