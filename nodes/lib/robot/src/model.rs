@@ -323,18 +323,11 @@ impl RobotModel {
         point_in_link: &Point3<f64>,
         jac: &mut Jacobian,
     ) {
-        let p = poses.get(link) * point_in_link;
         jac.fill(0.0);
-        for (j, &l) in self.joint_links.iter().enumerate() {
-            if l > link {
-                break;
-            }
-            let frame = &poses.poses[l];
-            let z = frame.rotation * self.links[l].axis.into_inner();
-            let v = z.cross(&(p.coords - frame.translation.vector));
+        self.for_each_joint_column(poses, link, point_in_link, |j, v, z| {
             jac.fixed_view_mut::<3, 1>(0, j).copy_from(&v);
             jac.fixed_view_mut::<3, 1>(3, j).copy_from(&z);
-        }
+        });
     }
 
     /// The linear-velocity rows of [`jacobian`](Self::jacobian): the 3×7 position Jacobian of a
@@ -349,15 +342,26 @@ impl RobotModel {
         point_in_link: &Point3<f64>,
         jac: &mut PositionJacobian,
     ) {
-        let p = poses.get(link) * point_in_link;
         jac.fill(0.0);
+        self.for_each_joint_column(poses, link, point_in_link, |j, v, _z| jac.set_column(j, &v));
+    }
+
+    /// Calls `column(j, z_j × (p − o_j), z_j)` for every joint `j` that moves `link` (base frame).
+    fn for_each_joint_column(
+        &self,
+        poses: &LinkPoses,
+        link: usize,
+        point_in_link: &Point3<f64>,
+        mut column: impl FnMut(usize, Vector3<f64>, Vector3<f64>),
+    ) {
+        let p = poses.get(link) * point_in_link;
         for (j, &l) in self.joint_links.iter().enumerate() {
             if l > link {
                 break;
             }
             let frame = &poses.poses[l];
             let z = frame.rotation * self.links[l].axis.into_inner();
-            jac.set_column(j, &z.cross(&(p.coords - frame.translation.vector)));
+            column(j, z.cross(&(p.coords - frame.translation.vector)), z);
         }
     }
 }
