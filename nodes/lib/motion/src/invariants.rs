@@ -6,7 +6,8 @@
 //! `e¹ = ‖u‖`, `e² = ‖u × u̇‖ / ‖u‖²` (curvature × speed), `e³ = ‖u‖ (u · (u̇ × ü)) / ‖u × u̇‖²`
 //! (torsion × speed, signed). The reconstruction integrates the Frenet–Serret frame with the
 //! Darboux vector `(e³, 0, e²)` by the exponential map at the mid-step value.
-//! The DS invariants of Table B.1 (screw-axis based) are not implemented.
+//! The DS invariants of Table B.1 (screw-axis based) are in [`crate::screw`]; the comparison of
+//! App. B.2 is [`crate::appendix_b`].
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -14,7 +15,8 @@ use crate::error::{MotionError, Result};
 
 const EPS: f64 = 1e-12;
 
-fn derivative(u: &[Vector3<f64>], dt: f64) -> Vec<Vector3<f64>> {
+/// Central finite differences of `u` sampled every `dt` s (one-sided at the ends).
+pub(crate) fn derivative(u: &[Vector3<f64>], dt: f64) -> Vec<Vector3<f64>> {
     let n = u.len();
     (0..n)
         .map(|i| {
@@ -29,7 +31,8 @@ fn derivative(u: &[Vector3<f64>], dt: f64) -> Vec<Vector3<f64>> {
         .collect()
 }
 
-fn check(u: &[Vector3<f64>], dt: f64, what: &str) -> Result<()> {
+/// At least 3 finite samples and a finite `dt > 0`.
+pub(crate) fn check_signal(u: &[Vector3<f64>], dt: f64, what: &str) -> Result<()> {
     if u.len() < 3 {
         return Err(MotionError::TooFewSamples {
             what: what.into(),
@@ -53,8 +56,8 @@ fn check(u: &[Vector3<f64>], dt: f64, what: &str) -> Result<()> {
 /// Invariant to roto-translation (and `γ` to linear scale), not to speed.
 pub fn unidirectional(v: &[Vector3<f64>], w: &[Vector3<f64>], dt: f64) -> Result<Vec<[f64; 2]>> {
     crate::error::check_dim("angular vs linear velocities", v.len(), w.len())?;
-    check(v, dt, "linear velocity")?;
-    check(w, dt, "angular velocity")?;
+    check_signal(v, dt, "linear velocity")?;
+    check_signal(w, dt, "angular velocity")?;
     let dv = derivative(v, dt);
     let dw = derivative(w, dt);
     let f = |a: &Vector3<f64>, b: &Vector3<f64>| {
@@ -81,7 +84,7 @@ pub struct EfsSignal {
 
 /// EFS invariants of `u` sampled at `dt`.
 pub fn efs_signal(u: &[Vector3<f64>], dt: f64) -> Result<EfsSignal> {
-    check(u, dt, "EFS signal")?;
+    check_signal(u, dt, "EFS signal")?;
     let du = derivative(u, dt);
     let ddu = derivative(&du, dt);
     let rows = (0..u.len())

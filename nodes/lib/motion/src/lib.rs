@@ -18,6 +18,7 @@
 // parallel fixed-size buffers at once in the allocation-free paths.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
+pub mod appendix_b;
 pub mod cgmr;
 pub mod csv_io;
 pub mod demo;
@@ -33,6 +34,7 @@ pub mod invariants;
 pub mod lasa;
 mod linalg;
 pub mod model;
+pub mod screw;
 
 pub use cgmr::{Cgmr, CgmrConfig, CgmrRunner, Components, Region, mu1, stabilizing_gains};
 pub use demo::Demonstration;
