@@ -6,6 +6,7 @@
 //! motion_tool dtw PAIRS.csv                          -> one distance per line (1-D pairs a;b)
 //! motion_tool dmp DEMO.csv N_BASIS REPEATS OUT.csv   -> reproduction to OUT.csv, timing line
 //! motion_tool lasa-k DIR MOTIONS KMAX SUBSAMPLE      -> "name,K" per motion (BIC)
+//! motion_tool lasa-time DIR MOTIONS REPEATS          -> EM+BIC time per motion (min of REPEATS)
 //! motion_tool lasa DIR MOTIONS [EXT_DIR]             -> the LASA table
 //! ```
 
@@ -137,6 +138,35 @@ fn run(args: &[String]) -> Result<()> {
                 )?;
                 println!("{name},{}", ds.gmr.n_components());
             }
+        }
+        "lasa-time" => {
+            // Training only (EM + BIC over K = 1..10 at the benchmark's settings), the fastest of
+            // REPEATS runs per motion: robust against other load on the machine.
+            let root = Path::new(arg(args, 2)?);
+            let motions: usize = num(arg(args, 3)?)?;
+            let repeats: usize = num(arg(args, 4)?)?;
+            let opts = LasaOptions::default();
+            let mut times = Vec::new();
+            for (name, dir) in list_motions(root)?.into_iter().take(motions) {
+                let demos = load_motion(&dir)?;
+                let mut best = f64::INFINITY;
+                let mut k = 0;
+                for _ in 0..repeats.max(1) {
+                    let t0 = Instant::now();
+                    let (ds, _) = fit_gmr_ds(
+                        &demos,
+                        Components::Bic(opts.k_max),
+                        &opts.em,
+                        opts.subsample,
+                    )?;
+                    best = best.min(t0.elapsed().as_secs_f64() * 1e3);
+                    k = ds.gmr.n_components();
+                }
+                println!("{name},{k},{best:.3}");
+                times.push(best);
+            }
+            times.sort_by(f64::total_cmp);
+            println!("median_ms,{:.3}", times[times.len() / 2]);
         }
         "lasa" => {
             let root = Path::new(arg(args, 2)?);

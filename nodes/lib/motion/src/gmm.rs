@@ -344,11 +344,91 @@ fn kmeans_init(data: &[f64], d: usize, k: usize, cfg: &EmConfig) -> Result<Gmm> 
         }
     }
     // Hard responsibilities -> one M-step gives the starting mixture.
-    let mut resp = vec![0.0; n * k];
-    for i in 0..n {
-        resp[i * k + assign[i]] = 1.0;
+    Ok(hard_m_step(data, d, k, &assign, cfg.reg_covar))
+}
+
+/// [`m_step`] for one-hot responsibilities given as the cluster of each sample: the same
+/// mixture in O(n d²) instead of O(n k d²).
+fn hard_m_step(data: &[f64], d: usize, k: usize, assign: &[usize], reg: f64) -> Gmm {
+    let n = data.len() / d;
+    let mut nk = vec![0.0; k];
+    let mut means = vec![vec![0.0; d]; k];
+    for (x, &c) in data.chunks_exact(d).zip(assign) {
+        nk[c] += 1.0;
+        for j in 0..d {
+            means[c][j] += x[j];
+        }
     }
-    Ok(m_step(data, d, k, &resp, cfg.reg_covar))
+    let mut gmean = vec![0.0; d];
+    for x in data.chunks_exact(d) {
+        for j in 0..d {
+            gmean[j] += x[j] / n as f64;
+        }
+    }
+    let tiny = 10.0 * f64::EPSILON;
+    for c in 0..k {
+        if nk[c] > tiny {
+            for j in 0..d {
+                means[c][j] /= nk[c];
+            }
+        } else {
+            means[c].clone_from(&gmean);
+        }
+    }
+    let mut covs = vec![vec![0.0; d * d]; k];
+    let mut diff = vec![0.0; d];
+    for (x, &c) in data.chunks_exact(d).zip(assign) {
+        for j in 0..d {
+            diff[j] = x[j] - means[c][j];
+        }
+        let cov = &mut covs[c];
+        for a in 0..d {
+            for b in 0..=a {
+                cov[a * d + b] += diff[a] * diff[b];
+            }
+        }
+    }
+    let empty = nk.iter().any(|v| !(*v > tiny));
+    let mut gcov = vec![0.0; d * d];
+    if empty {
+        for x in data.chunks_exact(d) {
+            for a in 0..d {
+                for b in 0..d {
+                    gcov[a * d + b] += (x[a] - gmean[a]) * (x[b] - gmean[b]) / n as f64;
+                }
+            }
+        }
+    }
+    for c in 0..k {
+        let cov = &mut covs[c];
+        if nk[c] > tiny {
+            for a in 0..d {
+                for b in 0..=a {
+                    cov[a * d + b] /= nk[c];
+                }
+            }
+        } else {
+            cov.clone_from(&gcov);
+        }
+        for a in 0..d {
+            for b in 0..a {
+                cov[b * d + a] = cov[a * d + b];
+            }
+            cov[a * d + a] += reg;
+        }
+    }
+    let total: f64 = nk.iter().sum();
+    let priors = nk
+        .iter()
+        .map(|v| (v / total).max(f64::MIN_POSITIVE))
+        .collect::<Vec<_>>();
+    let s: f64 = priors.iter().sum();
+    Gmm {
+        dim: d,
+        priors: priors.iter().map(|p| p / s).collect(),
+        means,
+        covariances: covs,
+    }
 }
 
 /// M-step from responsibilities `resp` (row-major `n × k`). Components with (almost) no mass get
@@ -446,7 +526,249 @@ fn m_step(data: &[f64], d: usize, k: usize, resp: &[f64], reg: f64) -> Gmm {
     }
 }
 
-fn em(data: &[f64], d: usize, mut gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
+/// EM from `gmm`: the fixed-size fused pass for the common dimensions (2-D and 3-D motions give
+/// `d` = 4 and 6), the generic one otherwise. Both compute the same iterates (to rounding).
+fn em(data: &[f64], d: usize, gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
+    match d {
+        1 => em_fixed::<1, 1>(data, gmm, cfg),
+        2 => em_fixed::<2, 3>(data, gmm, cfg),
+        3 => em_fixed::<3, 6>(data, gmm, cfg),
+        4 => em_fixed::<4, 10>(data, gmm, cfg),
+        6 => em_fixed::<6, 21>(data, gmm, cfg),
+        _ => em_generic(data, d, gmm, cfg),
+    }
+}
+
+/// Index of `(a, b)`, `b ≤ a`, in the packed lower triangle (row-major).
+#[inline(always)]
+const fn tri(a: usize, b: usize) -> usize {
+    a * (a + 1) / 2 + b
+}
+
+/// EM for dimension `D` (`T = D(D+1)/2`) with one fused pass over the data per iteration: the
+/// E-step of iteration `t` accumulates the sufficient statistics `Σr`, `Σr x`, `Σr x xᵀ` of the
+/// M-step, on data centred at their mean (so that `Σ = Σr x xᵀ/N_k − μμᵀ` loses no precision).
+/// Densities use the inverse Cholesky factor (a triangular matrix–vector product, no division).
+/// Buffers are allocated once per call, not per iteration.
+fn em_fixed<const D: usize, const T: usize>(
+    data: &[f64],
+    mut gmm: Gmm,
+    cfg: &EmConfig,
+) -> Result<GmmFit> {
+    debug_assert_eq!(T, D * (D + 1) / 2);
+    let n = data.len() / D;
+    let k = gmm.n_components();
+    let mut center = [0.0; D];
+    for x in data.chunks_exact(D) {
+        for j in 0..D {
+            center[j] += x[j];
+        }
+    }
+    for c in center.iter_mut() {
+        *c /= n as f64;
+    }
+    let mut xs: Vec<[f64; D]> = Vec::with_capacity(n);
+    let mut phi: Vec<[f64; T]> = Vec::with_capacity(n);
+    let mut gcov = [0.0; T];
+    for x in data.chunks_exact(D) {
+        let mut y = [0.0; D];
+        for j in 0..D {
+            y[j] = x[j] - center[j];
+        }
+        let mut p = [0.0; T];
+        for a in 0..D {
+            for b in 0..=a {
+                p[tri(a, b)] = y[a] * y[b];
+            }
+        }
+        for t in 0..T {
+            gcov[t] += p[t] / n as f64;
+        }
+        xs.push(y);
+        phi.push(p);
+    }
+    // Current parameters, centred.
+    let mut mu: Vec<[f64; D]> = gmm
+        .means
+        .iter()
+        .map(|m| std::array::from_fn(|j| m[j] - center[j]))
+        .collect();
+    let mut cov: Vec<[f64; T]> = gmm
+        .covariances
+        .iter()
+        .map(|c| std::array::from_fn(|t| c[tri_row(t) * D + tri_col(t)]))
+        .collect();
+    let mut priors = gmm.priors.clone();
+    let mut linv: Vec<[f64; T]> = vec![[0.0; T]; k];
+    let mut lconst = vec![0.0; k];
+    let mut s0 = vec![0.0; k];
+    let mut s1: Vec<[f64; D]> = vec![[0.0; D]; k];
+    let mut s2: Vec<[f64; T]> = vec![[0.0; T]; k];
+    let mut row = vec![0.0; k];
+    let mut full = vec![0.0; D * D];
+    let mut l = vec![0.0; D * D];
+    let mut prev = f64::NEG_INFINITY;
+    let mut converged = false;
+    let mut iterations = 0;
+    let mut ll = f64::NEG_INFINITY;
+    let tiny = 10.0 * f64::EPSILON;
+    let half_d_ln2pi = 0.5 * D as f64 * LN_2PI;
+    for it in 0..cfg.max_iter {
+        iterations = it + 1;
+        // Factors of the current parameters.
+        for c in 0..k {
+            for a in 0..D {
+                for b in 0..=a {
+                    full[a * D + b] = cov[c][tri(a, b)];
+                    full[b * D + a] = cov[c][tri(a, b)];
+                }
+            }
+            if !cholesky(&full, D, &mut l) {
+                return Err(MotionError::SingularCovariance {
+                    component: c,
+                    context: "EM".into(),
+                });
+            }
+            // Inverse of the lower-triangular L by forward substitution, column by column.
+            let li = &mut linv[c];
+            for j in 0..D {
+                for a in j..D {
+                    let mut s = if a == j { 1.0 } else { 0.0 };
+                    for b in j..a {
+                        s -= l[a * D + b] * li[tri(b, j)];
+                    }
+                    li[tri(a, j)] = s / l[a * D + a];
+                }
+            }
+            lconst[c] = priors[c].ln() - 0.5 * chol_logdet(&l, D) - half_d_ln2pi;
+        }
+        s0.iter_mut().for_each(|v| *v = 0.0);
+        s1.iter_mut().for_each(|v| *v = [0.0; D]);
+        s2.iter_mut().for_each(|v| *v = [0.0; T]);
+        ll = 0.0;
+        for (x, p) in xs.iter().zip(&phi) {
+            let mut m = f64::NEG_INFINITY;
+            for c in 0..k {
+                let mut diff = [0.0; D];
+                for j in 0..D {
+                    diff[j] = x[j] - mu[c][j];
+                }
+                let li = &linv[c];
+                let mut q = 0.0;
+                for a in 0..D {
+                    let mut z = 0.0;
+                    for b in 0..=a {
+                        z += li[tri(a, b)] * diff[b];
+                    }
+                    q += z * z;
+                }
+                let v = lconst[c] - 0.5 * q;
+                row[c] = v;
+                m = m.max(v);
+            }
+            // exp(−40) ≈ 4e-18 is below the rounding of the sum (≥ 1): such responsibilities
+            // are exactly zero to double precision and need no `exp`.
+            let mut sum = 0.0;
+            for v in row.iter_mut() {
+                let e = *v - m;
+                *v = if e < -40.0 { 0.0 } else { e.exp() };
+                sum += *v;
+            }
+            ll += m + sum.ln();
+            let inv = 1.0 / sum;
+            for c in 0..k {
+                let r = row[c] * inv;
+                if r == 0.0 {
+                    continue;
+                }
+                s0[c] += r;
+                for j in 0..D {
+                    s1[c][j] += r * x[j];
+                }
+                for t in 0..T {
+                    s2[c][t] += r * p[t];
+                }
+            }
+        }
+        let mean_ll = ll / n as f64;
+        if !mean_ll.is_finite() {
+            return Err(invalid(
+                "training data",
+                "log-likelihood is not finite (degenerate data?)",
+            ));
+        }
+        if (mean_ll - prev).abs() < cfg.tol {
+            converged = true;
+            break;
+        }
+        prev = mean_ll;
+        // M-step from the statistics.
+        let total: f64 = s0.iter().sum();
+        for c in 0..k {
+            let nk = s0[c];
+            if nk > tiny {
+                for j in 0..D {
+                    mu[c][j] = s1[c][j] / nk;
+                }
+                for a in 0..D {
+                    for b in 0..=a {
+                        cov[c][tri(a, b)] = s2[c][tri(a, b)] / nk - mu[c][a] * mu[c][b];
+                    }
+                }
+            } else {
+                mu[c] = [0.0; D];
+                cov[c] = gcov;
+            }
+            for a in 0..D {
+                cov[c][tri(a, a)] += cfg.reg_covar;
+            }
+            priors[c] = (nk / total).max(f64::MIN_POSITIVE);
+        }
+        let ps: f64 = priors.iter().sum();
+        priors.iter_mut().for_each(|p| *p /= ps);
+    }
+    gmm.priors = priors;
+    for c in 0..k {
+        for j in 0..D {
+            gmm.means[c][j] = mu[c][j] + center[j];
+        }
+        for a in 0..D {
+            for b in 0..=a {
+                gmm.covariances[c][a * D + b] = cov[c][tri(a, b)];
+                gmm.covariances[c][b * D + a] = cov[c][tri(a, b)];
+            }
+        }
+    }
+    if !converged {
+        // `ll` belongs to the parameters before the last M-step; report the final ones.
+        ll = gmm.log_likelihood(data)?;
+    }
+    let bic = -2.0 * ll + gmm.n_parameters() as f64 * (n as f64).ln();
+    Ok(GmmFit {
+        gmm,
+        log_likelihood: ll,
+        iterations,
+        converged,
+        bic,
+    })
+}
+
+/// Row of the packed lower-triangle index `t`.
+fn tri_row(t: usize) -> usize {
+    let mut a = 0;
+    while tri(a + 1, 0) <= t {
+        a += 1;
+    }
+    a
+}
+
+/// Column of the packed lower-triangle index `t`.
+fn tri_col(t: usize) -> usize {
+    t - tri(tri_row(t), 0)
+}
+
+/// The reference EM: separate E- and M-steps over flat slices, any dimension.
+fn em_generic(data: &[f64], d: usize, mut gmm: Gmm, cfg: &EmConfig) -> Result<GmmFit> {
     let n = data.len() / d;
     let k = gmm.n_components();
     let mut resp = vec![0.0; n * k];
@@ -556,6 +878,72 @@ mod tests {
             assert!(ll >= prev - 1e-9, "{ll} < {prev}");
             prev = ll;
             g = fit.gmm;
+        }
+    }
+
+    #[test]
+    fn fixed_size_em_matches_the_generic_one() {
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let normal = rand_distr::Normal::new(0.0, 1.0).expect("normal");
+        for d in [1usize, 2, 3, 4, 6] {
+            // Three clusters far from the origin (tests the centring).
+            let data: Vec<f64> = (0..300)
+                .flat_map(|i| {
+                    let c = (i % 3) as f64;
+                    (0..d)
+                        .map(|j| 100.0 + 4.0 * c * (j as f64 + 1.0) + rng.sample(normal))
+                        .collect::<Vec<_>>()
+                })
+                .collect();
+            for k in [1, 3, 5] {
+                let cfg = EmConfig {
+                    tol: 1e-8,
+                    ..EmConfig::default()
+                };
+                let init = kmeans_init(&data, d, k, &cfg).expect("init");
+                let a = em(&data, d, init.clone(), &cfg).expect("fixed");
+                let b = em_generic(&data, d, init, &cfg).expect("generic");
+                assert_eq!(a.iterations, b.iterations, "d {d} k {k}");
+                assert!(
+                    (a.log_likelihood - b.log_likelihood).abs() < 1e-8 * b.log_likelihood.abs(),
+                    "d {d} k {k}: {} vs {}",
+                    a.log_likelihood,
+                    b.log_likelihood
+                );
+                for c in 0..k {
+                    assert!((a.gmm.priors[c] - b.gmm.priors[c]).abs() < 1e-9);
+                    for (x, y) in a.gmm.means[c].iter().zip(&b.gmm.means[c]) {
+                        assert!((x - y).abs() < 1e-8, "d {d} k {k}: {x} vs {y}");
+                    }
+                    for (x, y) in a.gmm.covariances[c].iter().zip(&b.gmm.covariances[c]) {
+                        assert!((x - y).abs() < 1e-8, "d {d} k {k}: {x} vs {y}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn hard_m_step_equals_m_step_with_one_hot_responsibilities() {
+        let data = two_blobs();
+        let n = data.len() / 2;
+        let k = 4;
+        // Cluster 3 stays empty (takes the data covariance).
+        let assign: Vec<usize> = (0..n).map(|i| (i * 7 + i / 5) % 3).collect();
+        let mut resp = vec![0.0; n * k];
+        for i in 0..n {
+            resp[i * k + assign[i]] = 1.0;
+        }
+        let a = hard_m_step(&data, 2, k, &assign, 1e-6);
+        let b = m_step(&data, 2, k, &resp, 1e-6);
+        assert_eq!(a.priors, b.priors);
+        for c in 0..k {
+            for (x, y) in a.means[c].iter().zip(&b.means[c]) {
+                assert!((x - y).abs() < 1e-12);
+            }
+            for (x, y) in a.covariances[c].iter().zip(&b.covariances[c]) {
+                assert!((x - y).abs() < 1e-12);
+            }
         }
     }
 
