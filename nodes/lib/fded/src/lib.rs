@@ -1,1 +1,57 @@
-//! fDED: robot–obstacle distances in depth space (thesis Sec. 5.1.2).
+//! fDED: fast robot–obstacle distance evaluation in the depth space (thesis Sec. 5.1.2).
+//!
+//! Per depth frame, [`Fded::process`]:
+//! 1. renders the robot's **virtual depth** from its link meshes at the current joints (eq.
+//!    5.14), every pixel labelled with its link;
+//! 2. removes the robot from the real depth (|d − d_r| ≤ δ = 5 cm), the table (points below
+//!    the table plane + margin, base frame) and invalid or background readings;
+//! 3. builds the **robot lattice** (per T_s × T_s tile and link, the robot pixel closest to the
+//!    tile centre) and 4. the **object lattice** (every S_x-th column of every S_y-th row);
+//! 5. finds, per link, the closest lattice pair under the depth-space distance (eq. 5.15–5.16)
+//!    with the gray area (eq. 5.17); 6. **refines** it over every robot pixel of the winning
+//!    tile (and, our addition, over the real depth around the winning object point);
+//! 7. fits the obstacle **normal** by weighted least squares over L = 1 % of the image's points
+//!    around the closest obstacle point, and the obstacle **velocity** from consecutive frames.
+//!
+//! The output ([`FdedOutput`]) is per link — distance, robot point, obstacle point, normal,
+//! obstacle velocity, valid — plus the global minimum, all in the robot base frame. Buffers
+//! ([`Buffers`]) are flat, `bytemuck`-friendly and sized once; with `threads = 1` a frame
+//! allocates nothing after the first. The [`baseline`] module holds the brute force and
+//! Flacco et al.'s sphere method for the benchmark.
+//!
+//! ```no_run
+//! use cowork_depth::{DepthImage, Intrinsics};
+//! use cowork_fded::{Fded, FdedParams, Frame};
+//! use cowork_robot::RobotModel;
+//! use nalgebra::{Isometry3, Vector3};
+//!
+//! let model = RobotModel::from_urdf_file("config/robot/lwr4plus.urdf")?;
+//! let k = Intrinsics::kinect();
+//! let mut fded = Fded::new(&model, &k, FdedParams::default())?;
+//! let mut out = fded.new_output();
+//! let depth = DepthImage::new(k.width, k.height);
+//! let camera = Isometry3::face_towards(
+//!     &[1.9, 0.0, 0.9].into(), &[0.45, 0.0, 0.2].into(), &-Vector3::z()); // optical y down
+//! let q = [0.0; 7];
+//! fded.process(&Frame { stamp: 0.0, depth: &depth, camera_pose: &camera, joints: Some(&q) }, &mut out)?;
+//! if let Some(m) = out.minimum() {
+//!     println!("closest: link {} at {:.3} m", m.link, m.distance);
+//! }
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+pub mod baseline;
+mod cam;
+mod error;
+pub mod gpu;
+pub mod layout;
+mod params;
+mod pipeline;
+pub mod raster;
+pub mod stages;
+
+pub use cam::Cam;
+pub use error::{Error, Result};
+pub use layout::{Buffers, LinkBest, NO_LINK, PixelBox, RobotPoint};
+pub use params::{Backend, FdedParams};
+pub use pipeline::{Fded, FdedOutput, Frame, FrameCounts, LinkDistance, StageTimes};
