@@ -1,0 +1,80 @@
+//! Depth rendering cost of one 640×480 frame of the stacking scene (table, four boxes, the LWR
+//! at a working pose and a person of 10 capsules reaching over the table).
+//!
+//! ```text
+//! CARGO_TARGET_DIR=target/h-node cargo bench -p cowork_depth --bench render
+//! ```
+//!
+//! * `render/parallel/*`: bands on the rayon pool (all cores);
+//! * `render/single_thread/*`: `set_parallel(false)`, everything on the calling thread;
+//! * `*/clean` without noise, `*/kinect_noise` with the default Kinect model;
+//! * `render/robot_only`: fDED's virtual depth (robot layer only), single thread.
+//!
+//! frames/s = 1 / time per iteration.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+
+use cowork_depth::{Capsule, DepthImage, DepthRenderer, KinectNoise, Layers};
+use cowork_robot::{JointVector, RobotModel};
+use cowork_sim::Scene;
+use criterion::{Criterion, criterion_group, criterion_main};
+use nalgebra::Point3;
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../..")
+}
+
+fn person() -> Vec<Capsule> {
+    let c = |a: [f64; 3], b: [f64; 3], r: f64| Capsule::new(Point3::from(a), Point3::from(b), r);
+    vec![
+        c([0.55, 1.0, 0.95], [0.55, 1.0, 1.35], 0.16),
+        c([0.55, 1.0, 1.65], [0.55, 1.0, 1.65], 0.11),
+        c([0.75, 1.0, 1.43], [0.35, 1.0, 1.43], 0.07),
+        c([0.35, 1.0, 1.43], [0.4, 0.75, 1.2], 0.05),
+        c([0.4, 0.75, 1.2], [0.45, 0.5, 0.8], 0.04),
+        c([0.45, 0.5, 0.8], [0.47, 0.43, 0.72], 0.045),
+        c([0.75, 1.0, 1.43], [0.75, 1.0, 1.13], 0.05),
+        c([0.75, 1.0, 1.13], [0.75, 0.95, 0.87], 0.04),
+        c([0.65, 1.0, 0.95], [0.65, 1.0, 0.0], 0.07),
+        c([0.45, 1.0, 0.95], [0.45, 1.0, 0.0], 0.07),
+    ]
+}
+
+fn bench(c: &mut Criterion) {
+    let model = RobotModel::from_urdf_file(repo().join("config/robot/lwr4plus.urdf")).expect("URDF");
+    let scene = Scene::from_file(&repo().join("config/scenes/stacking.yaml")).expect("scene");
+    let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
+    let q = JointVector::from_row_slice(&[0.3, 0.6, 0.0, 1.3, 0.0, 0.8, 0.0]);
+    let people = person();
+    let mut out = DepthImage::default();
+
+    let mut group = c.benchmark_group("render");
+    for parallel in [true, false] {
+        for noise in [false, true] {
+            let mut r = DepthRenderer::new(&model, &scene).expect("renderer");
+            r.set_parallel(parallel);
+            if noise {
+                r.set_noise(Some(KinectNoise::with_seed(1))).expect("noise");
+            }
+            let name = format!(
+                "{}/{}",
+                if parallel { "parallel" } else { "single_thread" },
+                if noise { "kinect_noise" } else { "clean" }
+            );
+            group.bench_function(name, |b| {
+                b.iter(|| r.render(black_box(&q), &objects, &people, &mut out).expect("render"))
+            });
+        }
+    }
+    let mut r = DepthRenderer::new(&model, &scene).expect("renderer");
+    r.set_parallel(false);
+    r.set_layers(Layers::robot_only());
+    group.bench_function("robot_only", |b| {
+        b.iter(|| r.render(black_box(&q), &objects, &people, &mut out).expect("render"))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
