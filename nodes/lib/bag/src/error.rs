@@ -189,4 +189,34 @@ pub enum BagError {
         /// Actual data length (bytes).
         len: usize,
     },
+    /// A playback option out of range.
+    #[error("option --{name} = {value}: {reason}")]
+    InvalidOption {
+        /// Option name.
+        name: String,
+        /// The value given.
+        value: String,
+        /// What is allowed.
+        reason: String,
+    },
+    /// A topic asked for is not in the bag.
+    #[error("{}: no topic {topic} in the bag (it has: {available})", path.display())]
+    UnknownTopic {
+        /// The bag file.
+        path: PathBuf,
+        /// The topic asked for.
+        topic: String,
+        /// The bag's topics, comma separated.
+        available: String,
+    },
+    /// A topic of the cowork graph carries another type than the graph's.
+    #[error("topic {topic} carries {actual}, but the cowork graph expects {expected} there")]
+    TopicType {
+        /// Topic name.
+        topic: String,
+        /// Type the graph expects.
+        expected: String,
+        /// Type in the bag.
+        actual: String,
+    },
 }

@@ -11,7 +11,10 @@
 //!   is a per-message error naming topic and time, never a crash;
 //! * damaged files: [`BagReader::open`] names the file and byte offset of the damage;
 //!   [`BagReader::open_recoverable`] reads everything readable around it;
-//! * [`check_image`] validates `sensor_msgs/Image` encodings and sizes.
+//! * [`check_image`] validates `sensor_msgs/Image` encodings and sizes; [`check_message`] /
+//!   [`check_bag`] check topic types of the graph, schemas, payloads and images per message;
+//! * [`Player`] schedules replay (rate, loop, start offset, topic filter, `/clock` ticks) with
+//!   no ROS dependency; the `cowork bag play` command publishes what it yields.
 //!
 //! No ROS dependency: this is a plain library used by the `cowork bag` commands and tests.
 //!
@@ -38,13 +41,17 @@
 //! # }
 //! ```
 
+mod check;
 mod error;
 mod image;
+pub mod play;
 mod read;
 pub mod schema;
 mod write;
 
+pub use check::{GRAPH_TOPICS, TopicCheck, Verdict, check_bag, check_message, graph_topic_type};
 pub use error::{BagError, Result};
 pub use image::{bytes_per_pixel, check_image};
 pub use read::{BagInfo, BagReader, ChannelInfo, Messages, RawMessage, TopicInfo};
+pub use play::{PlayItem, PlayOptions, Player, Rate, Schedule};
 pub use write::{BagWriter, ChannelId, WriteSummary};

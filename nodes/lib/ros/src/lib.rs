@@ -7,7 +7,9 @@
 //!   name comes from the message trait, so it can never drift from the struct;
 //! - the QoS of every topic of the graph ([`qos`]);
 //! - [`params::load`], the loader of ROS 2-shaped YAML parameter files;
-//! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop.
+//! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop;
+//! - [`raw`]: untyped publishers / subscriptions of serialised CDR payloads named only by their
+//!   type string (bag record and replay of types we do not know).
 //!
 //! ```no_run
 //! use cowork_msgs::std_msgs::String as RosString;
@@ -23,6 +25,7 @@ mod node;
 pub use node::{discovery_on_all_networks, domain_id_from_env};
 pub mod params;
 pub mod qos;
+pub mod raw;
 pub mod shutdown;
 
 pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};

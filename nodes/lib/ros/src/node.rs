@@ -43,8 +43,8 @@ pub struct TopicInfo {
 /// A ROS 2 node on the domain given by `ROS_DOMAIN_ID` (0 when unset).
 pub struct RosNode {
     // Field order matters: the node must drop before its context.
-    node: Node,
-    context: Context,
+    pub(crate) node: Node,
+    pub(crate) context: Context,
     name: String,
     /// Latest `/clock` time, ns; negative until the first tick when `use_sim_time`.
     sim_time_ns: Option<Arc<AtomicI64>>,

@@ -48,3 +48,9 @@ pub fn latched() -> QosProfile {
         ..QosProfile::publisher_default()
     }
 }
+
+/// Best effort, volatile, keep last `depth`: a reader that matches every writer, reliable or
+/// not (what `cowork bag record` uses for a topic before it knows its writers' QoS).
+pub fn best_effort_depth(depth: usize) -> QosProfile {
+    QosProfile { history: History::KeepLast { depth }, ..sensor_data() }
+}
