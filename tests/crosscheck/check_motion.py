@@ -127,9 +127,12 @@ def lasa_sklearn(lasa_dir, ks_file, out_dir, subsample):
                 idx.append(len(d) - 1)
             rows.append(np.column_stack([d[idx, 1:3] - target, d[idx, 3:5]]))
         data = np.vstack(rows)
-        t0 = time.perf_counter()
-        gm = GaussianMixture(n_components=k, covariance_type="full", tol=1e-3, max_iter=100, reg_covar=1e-6, random_state=0).fit(data)
-        fit_ms = (time.perf_counter() - t0) * 1e3
+        # Fastest of 3 identical fits, as cowork times its own (LasaOptions::timing_repeats).
+        fit_ms = float("inf")
+        for _ in range(3):
+            t0 = time.perf_counter()
+            gm = GaussianMixture(n_components=k, covariance_type="full", tol=1e-3, max_iter=100, reg_covar=1e-6, random_state=0).fit(data)
+            fit_ms = min(fit_ms, (time.perf_counter() - t0) * 1e3)
         g = GMM(n_components=k, priors=gm.weights_, means=gm.means_, covariances=gm.covariances_)
         od = os.path.join(out_dir, name)
         os.makedirs(od, exist_ok=True)

@@ -83,6 +83,15 @@ fn benches(c: &mut Criterion) {
     c.bench_function("dhb_from_twists_1000", |b| {
         b.iter(|| Dhb::from_twists(black_box(&tw.0), black_box(&tw.1)).expect("dhb"))
     });
+    c.bench_function("ds_invariants_1000", |b| {
+        b.iter(|| {
+            cowork_motion::screw::ds_invariants(black_box(&tw.0), black_box(&tw.1), 0.004)
+                .expect("ds")
+        })
+    });
+    c.bench_function("efs_signal_1000", |b| {
+        b.iter(|| cowork_motion::invariants::efs_signal(black_box(&tw.0), 0.004).expect("efs"))
+    });
     let d0 = &demos[0];
     c.bench_function("dmp_fit_rollout_1000x2_30basis", |b| {
         b.iter(|| {

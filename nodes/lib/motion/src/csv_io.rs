@@ -436,6 +436,192 @@ pub fn read_dhb(path: &Path) -> Result<(Vec<f64>, f64, crate::dhb::Dhb)> {
     Ok((table.rows.iter().map(|r| r[0]).collect(), t_end, dhb))
 }
 
+/// Column names of an EFS invariant file (`cowork learn dhb --kind efs`).
+pub const EFS_HEADER: [&str; 7] = ["t", "e1_v", "e2_v", "e3_v", "e1_w", "e2_w", "e3_w"];
+/// Column names of a DS invariant file (`cowork learn dhb --kind ds`).
+pub const DS_HEADER: [&str; 7] = ["t", "d1_w", "d2_w", "d3_w", "d1_v", "d2_v", "d3_v"];
+
+/// The `# <tag> …` comment line of an invariant file: its 1-based row and text.
+fn tagged_line<'a>(path: &Path, text: &'a str, tag: &str) -> Result<(usize, &'a str)> {
+    text.lines()
+        .enumerate()
+        .find(|(_, l)| l.starts_with(&format!("# {tag} ")))
+        .map(|(i, l)| (i + 1, l))
+        .ok_or_else(|| csv_err(path, 1, "-", format!("missing `# {tag} …` line")))
+}
+
+/// `name=v1,v2,…` of a tagged line, with exactly `n` values.
+fn tagged_field(path: &Path, row: usize, line: &str, name: &str, n: usize) -> Result<Vec<f64>> {
+    let v = line
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix(&format!("{name}=")))
+        .ok_or_else(|| csv_err(path, row, name, "missing"))?;
+    let vals: Vec<f64> = v
+        .split(',')
+        .map(str::parse)
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| csv_err(path, row, name, "not a list of numbers"))?;
+    if vals.len() != n || vals.iter().any(|x| !x.is_finite()) {
+        return Err(csv_err(
+            path,
+            row,
+            name,
+            format!("expected {n} finite values, got {}", vals.len()),
+        ));
+    }
+    Ok(vals)
+}
+
+fn write_six(
+    path: &Path,
+    header: &[&str; 7],
+    t: &[f64],
+    rows: &[[f64; 6]],
+    comment: String,
+) -> Result<()> {
+    let header: Vec<String> = header.iter().map(|s| s.to_string()).collect();
+    write_table(
+        path,
+        &header,
+        rows.iter().enumerate().map(|(i, r)| {
+            let mut v = vec![t.get(i).copied().unwrap_or(i as f64)];
+            v.extend_from_slice(r);
+            v
+        }),
+        &[comment],
+    )
+}
+
+/// Rows of a six-invariant file, checked against `header`.
+fn read_six(path: &Path, text: &str, header: &[&str; 7]) -> Result<(Vec<f64>, Vec<[f64; 6]>)> {
+    let table = read_table_from(text.as_bytes(), path)?;
+    let names: Vec<String> = header.iter().map(|s| s.to_string()).collect();
+    expect_columns(path, &table.header, &names, 0)?;
+    if table.rows.len() < 3 {
+        return Err(csv_err(path, 2, "-", "need at least 3 rows of invariants"));
+    }
+    Ok((
+        table.rows.iter().map(|r| r[0]).collect(),
+        table
+            .rows
+            .iter()
+            .map(|r| [r[1], r[2], r[3], r[4], r[5], r[6]])
+            .collect(),
+    ))
+}
+
+fn read_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|source| MotionError::Io {
+        file: path.to_path_buf(),
+        source,
+    })
+}
+
+fn pose_fields(
+    path: &Path,
+    row: usize,
+    line: &str,
+) -> Result<(f64, Vector3<f64>, Rotation3<f64>, f64)> {
+    let dt = tagged_field(path, row, line, "dt", 1)?[0];
+    if !(dt > 0.0) {
+        return Err(csv_err(path, row, "dt", "must be > 0"));
+    }
+    let p0 = tagged_field(path, row, line, "p0", 3)?;
+    let r0 = tagged_field(path, row, line, "r0", 4)?;
+    let t_end = tagged_field(path, row, line, "t_end", 1)?[0];
+    Ok((
+        dt,
+        Vector3::new(p0[0], p0[1], p0[2]),
+        rotation_from_wxyz([r0[0], r0[1], r0[2], r0[3]]),
+        t_end,
+    ))
+}
+
+fn pose_comment(tag: &str, dt: f64, p0: &Vector3<f64>, r0: &Rotation3<f64>, t_end: f64) -> String {
+    let q = UnitQuaternion::from_rotation_matrix(r0);
+    format!(
+        "{tag} dt={dt:.17e} p0={} r0={} t_end={t_end:.17e}",
+        fmt_list(p0.as_slice()),
+        fmt_list(&[q.w, q.i, q.j, q.k])
+    )
+}
+
+/// Writes EFS invariants of a pose trajectory; `t` are the pose times (row `i` gets `t[i]`, the
+/// last pose's time is kept for the reconstruction). Initial pose and frames go into a `# efs …`
+/// comment line.
+pub fn write_efs(path: &Path, t: &[f64], efs: &crate::pose_invariants::EfsPoses) -> Result<()> {
+    let rows = efs.rows();
+    let t_end = t.get(rows.len()).copied().unwrap_or(f64::NAN);
+    let comment = format!(
+        "{} linear_frame={} angular_frame={}",
+        pose_comment("efs", efs.dt, &efs.p0, &efs.r0, t_end),
+        fmt_list(efs.linear.frame0.as_slice()),
+        fmt_list(efs.angular.frame0.as_slice())
+    );
+    write_six(path, &EFS_HEADER, t, &rows, comment)
+}
+
+/// Reads a file written by [`write_efs`]: row times, time of the last pose, invariants.
+pub fn read_efs(path: &Path) -> Result<(Vec<f64>, f64, crate::pose_invariants::EfsPoses)> {
+    use crate::invariants::EfsSignal;
+    use nalgebra::Matrix3;
+    let text = read_text(path)?;
+    let (row, line) = tagged_line(path, &text, "efs")?;
+    let (dt, p0, r0, t_end) = pose_fields(path, row, line)?;
+    let lf = tagged_field(path, row, line, "linear_frame", 9)?;
+    let af = tagged_field(path, row, line, "angular_frame", 9)?;
+    let (t, rows) = read_six(path, &text, &EFS_HEADER)?;
+    let efs = crate::pose_invariants::EfsPoses {
+        dt,
+        p0,
+        r0,
+        linear: EfsSignal {
+            rows: rows.iter().map(|r| [r[0], r[1], r[2]]).collect(),
+            frame0: Matrix3::from_column_slice(&lf),
+        },
+        angular: EfsSignal {
+            rows: rows.iter().map(|r| [r[3], r[4], r[5]]).collect(),
+            frame0: Matrix3::from_column_slice(&af),
+        },
+    };
+    Ok((t, t_end, efs))
+}
+
+/// Writes DS invariants of a pose trajectory (as [`write_efs`]; the initial ISA frame goes into
+/// a `# ds …` comment line).
+pub fn write_ds(path: &Path, t: &[f64], ds: &crate::pose_invariants::DsPoses) -> Result<()> {
+    let t_end = t.get(ds.inv.rows.len()).copied().unwrap_or(f64::NAN);
+    let comment = format!(
+        "{} isa_frame={} isa_origin={}",
+        pose_comment("ds", ds.dt, &ds.p0, &ds.r0, t_end),
+        fmt_list(ds.inv.frame0.as_slice()),
+        fmt_list(ds.inv.origin0.as_slice())
+    );
+    write_six(path, &DS_HEADER, t, &ds.inv.rows, comment)
+}
+
+/// Reads a file written by [`write_ds`]: row times, time of the last pose, invariants.
+pub fn read_ds(path: &Path) -> Result<(Vec<f64>, f64, crate::pose_invariants::DsPoses)> {
+    use nalgebra::Matrix3;
+    let text = read_text(path)?;
+    let (row, line) = tagged_line(path, &text, "ds")?;
+    let (dt, p0, r0, t_end) = pose_fields(path, row, line)?;
+    let f = tagged_field(path, row, line, "isa_frame", 9)?;
+    let o = tagged_field(path, row, line, "isa_origin", 3)?;
+    let (t, rows) = read_six(path, &text, &DS_HEADER)?;
+    let ds = crate::pose_invariants::DsPoses {
+        dt,
+        p0,
+        r0,
+        inv: crate::screw::DsInvariants {
+            rows,
+            frame0: Matrix3::from_column_slice(&f),
+            origin0: Vector3::new(o[0], o[1], o[2]),
+        },
+    };
+    Ok((t, t_end, ds))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -520,6 +706,45 @@ mod tests {
         }
         std::fs::write(&path, "t,m_l\n0,1\n").expect("w");
         assert!(read_dhb(&path).is_err());
+    }
+
+    #[test]
+    fn efs_and_ds_files_round_trip() {
+        use crate::pose_invariants::{DsPoses, EfsPoses};
+        let n = 200;
+        let dt = 0.01;
+        let (p, r): (Vec<_>, Vec<_>) = (0..n)
+            .map(|i| {
+                let t = i as f64 * dt;
+                (
+                    Vector3::new(t.cos(), t.sin(), 0.1 * t),
+                    Rotation3::from_euler_angles(0.5 * t, 0.2 * t * t, 0.1),
+                )
+            })
+            .unzip();
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let poses = Poses { p, r };
+        let efs = EfsPoses::from_poses(&poses, dt).expect("efs");
+        let path = write("efs.csv", "");
+        write_efs(&path, &t, &efs).expect("write");
+        let (tt, t_end, back) = read_efs(&path).expect("read");
+        assert_eq!(tt.len(), n - 1);
+        assert_eq!(t_end, t[n - 1]);
+        assert_eq!(back, efs);
+        let ds = DsPoses::from_poses(&poses, dt).expect("ds");
+        let path = write("ds.csv", "");
+        write_ds(&path, &t, &ds).expect("write");
+        let (_, _, back) = read_ds(&path).expect("read");
+        assert_eq!(back, ds);
+        // A DS file is not an EFS file, and a missing field is named.
+        assert!(read_efs(&path).is_err());
+        let text = std::fs::read_to_string(&path).expect("read");
+        std::fs::write(&path, text.replace("isa_origin=", "origin=")).expect("w");
+        let e = read_ds(&path)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("isa_origin"), "{e}");
     }
 
     #[test]

@@ -282,10 +282,11 @@ fn kmeans_init(data: &[f64], d: usize, k: usize, cfg: &EmConfig) -> Result<Gmm> 
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed);
     let row = |i: usize| &data[i * d..(i + 1) * d];
     let dist2 = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>();
-    let mut centers: Vec<Vec<f64>> = Vec::with_capacity(k);
-    centers.push(row(rng.random_range(0..n)).to_vec());
-    let mut best_d2: Vec<f64> = (0..n).map(|i| dist2(row(i), &centers[0])).collect();
-    while centers.len() < k {
+    // Centres flat (`k × d`), buffers allocated once.
+    let mut centers: Vec<f64> = Vec::with_capacity(k * d);
+    centers.extend_from_slice(row(rng.random_range(0..n)));
+    let mut best_d2: Vec<f64> = data.chunks_exact(d).map(|x| dist2(x, &centers)).collect();
+    while centers.len() < k * d {
         let total: f64 = best_d2.iter().sum();
         let next = if total > 0.0 {
             let mut r = rng.random::<f64>() * total;
@@ -301,41 +302,43 @@ fn kmeans_init(data: &[f64], d: usize, k: usize, cfg: &EmConfig) -> Result<Gmm> 
         } else {
             rng.random_range(0..n)
         };
-        centers.push(row(next).to_vec());
-        let c = centers.len() - 1;
-        for i in 0..n {
-            best_d2[i] = best_d2[i].min(dist2(row(i), &centers[c]));
+        centers.extend_from_slice(row(next));
+        let c = &centers[centers.len() - d..];
+        for (b, x) in best_d2.iter_mut().zip(data.chunks_exact(d)) {
+            *b = b.min(dist2(x, c));
         }
     }
     let mut assign = vec![0usize; n];
+    let mut sums = vec![0.0; k * d];
+    let mut counts = vec![0usize; k];
     for _ in 0..cfg.kmeans_iter.max(1) {
         let mut changed = false;
-        for i in 0..n {
+        for (a, x) in assign.iter_mut().zip(data.chunks_exact(d)) {
             let (mut bc, mut bd) = (0, f64::INFINITY);
-            for (c, ctr) in centers.iter().enumerate() {
-                let dd = dist2(row(i), ctr);
+            for (c, ctr) in centers.chunks_exact(d).enumerate() {
+                let dd = dist2(x, ctr);
                 if dd < bd {
                     bd = dd;
                     bc = c;
                 }
             }
-            if assign[i] != bc {
-                assign[i] = bc;
+            if *a != bc {
+                *a = bc;
                 changed = true;
             }
         }
-        let mut sums = vec![vec![0.0; d]; k];
-        let mut counts = vec![0usize; k];
-        for i in 0..n {
-            counts[assign[i]] += 1;
-            for j in 0..d {
-                sums[assign[i]][j] += data[i * d + j];
+        sums.iter_mut().for_each(|v| *v = 0.0);
+        counts.iter_mut().for_each(|v| *v = 0);
+        for (&a, x) in assign.iter().zip(data.chunks_exact(d)) {
+            counts[a] += 1;
+            for (s, v) in sums[a * d..(a + 1) * d].iter_mut().zip(x) {
+                *s += v;
             }
         }
         for c in 0..k {
             if counts[c] > 0 {
                 for j in 0..d {
-                    centers[c][j] = sums[c][j] / counts[c] as f64;
+                    centers[c * d + j] = sums[c * d + j] / counts[c] as f64;
                 }
             }
         }

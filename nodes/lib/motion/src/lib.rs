@@ -34,6 +34,7 @@ pub mod invariants;
 pub mod lasa;
 mod linalg;
 pub mod model;
+pub mod pose_invariants;
 pub mod screw;
 
 pub use cgmr::{Cgmr, CgmrConfig, CgmrRunner, Components, Region, mu1, stabilizing_gains};
