@@ -1,0 +1,222 @@
+//! Scenario names, options and the entry point [`synthesize`].
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use cowork_robot::RobotModel;
+use cowork_sim::{Scene, SimParams, Simulator};
+
+use crate::depth::DepthRig;
+use crate::runner::Runner;
+use crate::{Result, SynthError, gestures, pour, stacking, static_scene};
+
+/// The scenario bags the synthesiser writes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[non_exhaustive]
+pub enum Scenario {
+    /// Kinesthetic demonstration of the pouring task: wrench + speech (Sec. 5.2.3, A.2.3).
+    KinestheticPour,
+    /// Robot held in a few configurations and boxes only, for the fDED tables (Sec. 5.1.2).
+    StaticScene,
+    /// Robot moving boxes while a person walks in, reaches, sweeps a hand, leaves (Sec. 5.1.3).
+    StackingHuman,
+    /// Labelled gestures come / stop / handover right by varied people (Sec. 5.1.3).
+    Gestures,
+}
+
+impl Scenario {
+    /// Every scenario, in the order the CLI lists them.
+    pub const ALL: &'static [Scenario] = &[
+        Scenario::KinestheticPour,
+        Scenario::StaticScene,
+        Scenario::StackingHuman,
+        Scenario::Gestures,
+    ];
+
+    /// The CLI name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scenario::KinestheticPour => "kinesthetic-pour",
+            Scenario::StaticScene => "static-scene",
+            Scenario::StackingHuman => "stacking-human",
+            Scenario::Gestures => "gestures",
+        }
+    }
+
+    /// Scene file under `config/scenes/`.
+    pub fn scene_file(self) -> &'static str {
+        match self {
+            Scenario::KinestheticPour => "kitchen.yaml",
+            Scenario::StaticScene | Scenario::StackingHuman | Scenario::Gestures => "stacking.yaml",
+        }
+    }
+
+    /// Length of the bag when no `--duration` is given, s (for the people scenarios it depends
+    /// on the people drawn from `seed`).
+    pub fn default_duration_s(self, seed: u64) -> Result<f64> {
+        Ok(match self {
+            Scenario::KinestheticPour => pour::NATURAL_DURATION_S,
+            Scenario::StaticScene => static_scene::SEGMENT_S * static_scene::CONFIGURATIONS_DEG.len() as f64,
+            Scenario::StackingHuman => stacking::default_duration_s(seed)?,
+            Scenario::Gestures => gestures::default_duration_s(seed)?,
+        })
+    }
+}
+
+impl std::fmt::Display for Scenario {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Scenario {
+    type Err = SynthError;
+
+    fn from_str(s: &str) -> Result<Self> {
+        Self::ALL.iter().copied().find(|sc| sc.name() == s).ok_or_else(|| SynthError::UnknownScenario {
+            name: s.to_owned(),
+            known: Self::ALL.iter().map(|s| s.name()).collect::<Vec<_>>().join(", "),
+        })
+    }
+}
+
+/// Options of one synthesis run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthOptions {
+    /// Seed of every random choice (noise, people, gestures): same seed, same bytes.
+    pub seed: u64,
+    /// Bag length, s; `None` for the scenario's default.
+    pub duration_s: Option<f64>,
+    /// Sensor noise (depth noise, skeleton jitter, force-sensor noise).
+    pub noise: bool,
+    /// Depth frames + camera info at 30 Hz (off: much smaller bags).
+    pub depth: bool,
+    /// The `config/` folder (robot URDF, scenes, `lwr_sim.yaml`).
+    pub config_dir: PathBuf,
+}
+
+impl Default for SynthOptions {
+    fn default() -> Self {
+        Self { seed: 0, duration_s: None, noise: true, depth: true, config_dir: PathBuf::from("config") }
+    }
+}
+
+/// What [`synthesize`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthSummary {
+    /// The scenario.
+    pub scenario: Scenario,
+    /// The bag.
+    pub path: PathBuf,
+    /// Simulated length, s.
+    pub duration_s: f64,
+    /// Messages per topic.
+    pub counts: BTreeMap<String, u64>,
+    /// File size, bytes.
+    pub bytes: u64,
+}
+
+/// Loads the robot, the scenario's scene and the simulator parameters of `lwr_sim` (the
+/// `simulation` block of `config/lwr_sim.yaml` when present, else the defaults).
+pub fn load_simulator(config_dir: &Path, scene_file: &str) -> Result<Simulator> {
+    let model = RobotModel::from_urdf_file(config_dir.join("robot/lwr4plus.urdf"))?;
+    let scene = Scene::from_file(&config_dir.join("scenes").join(scene_file))?;
+    let params = lwr_sim_params(&config_dir.join("lwr_sim.yaml"))?;
+    Ok(Simulator::new(model, scene, params)?)
+}
+
+fn lwr_sim_params(path: &Path) -> Result<SimParams> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Ok(SimParams::default());
+    };
+    let bad = |message: String| SynthError::Sim {
+        source: cowork_sim::SimError::Parse { path: path.to_owned(), message },
+    };
+    let doc: serde_yaml_ng::Value = serde_yaml_ng::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    let block = doc
+        .get("lwr_sim")
+        .and_then(|n| n.get("ros__parameters"))
+        .and_then(|p| p.get("simulation"));
+    let params = match block {
+        Some(b) => serde_yaml_ng::from_value::<SimParams>(b.clone())
+            .map_err(|e| bad(format!("lwr_sim.ros__parameters.simulation: {e}")))?,
+        None => SimParams::default(),
+    };
+    params.validate(&path.display().to_string())?;
+    Ok(params)
+}
+
+fn check_duration(d: f64) -> Result<f64> {
+    if d.is_finite() && d > 0.0 && d <= 3600.0 {
+        Ok(d)
+    } else {
+        Err(SynthError::BadOption {
+            option: "--duration",
+            value: d.to_string(),
+            reason: "must be a number of seconds in (0, 3600]".into(),
+        })
+    }
+}
+
+/// Writes the bag of `scenario` at `path`. `progress` is called with the fraction done (0..1).
+pub fn synthesize(
+    scenario: Scenario,
+    options: &SynthOptions,
+    path: &Path,
+    progress: &mut dyn FnMut(f64),
+) -> Result<SynthSummary> {
+    let duration = match options.duration_s {
+        Some(d) => check_duration(d)?,
+        None => scenario.default_duration_s(options.seed)?,
+    };
+    let sim = load_simulator(&options.config_dir, scenario.scene_file())?;
+    // Depth noise gets its own stream so that adding depth does not change the other streams.
+    let depth_seed = options.seed ^ 0x6465_7074_685f_6e6f;
+    let mut depth = if options.depth { Some(DepthRig::new(&sim, depth_seed, options.noise)?) } else { None };
+    let counts = match scenario {
+        Scenario::KinestheticPour => {
+            let scale = duration / pour::NATURAL_DURATION_S;
+            if !(0.6..=5.0).contains(&scale) {
+                return Err(SynthError::BadOption {
+                    option: "--duration",
+                    value: duration.to_string(),
+                    reason: format!(
+                        "kinesthetic-pour stretches its {} s demonstration by 0.6..5 (a faster \
+                         one would exceed the joint speed limits)",
+                        pour::NATURAL_DURATION_S
+                    ),
+                });
+            }
+            let plan = pour::plan_pour(&sim, scale)?;
+            let mut run = Runner::new(sim, path, duration, progress)?;
+            pour::run_pour(&mut run, &plan, options.seed, options.noise, |run| {
+                if let Some(rig) = depth.as_mut() {
+                    while let Some(t) = rig.due(run.now()) {
+                        rig.write_frame(&mut run.streams, t, &run.sim, &[])?;
+                    }
+                }
+                Ok(())
+            })?;
+            run.streams.finish()?
+        }
+        Scenario::StaticScene => {
+            let mut run = Runner::new(sim, path, duration, progress)?;
+            static_scene::run_static(&mut run, &mut depth)?;
+            run.streams.finish()?
+        }
+        Scenario::StackingHuman => {
+            let mut run = Runner::new(sim, path, duration, progress)?;
+            stacking::run_stacking(&mut run, &mut depth, options.seed, options.noise)?;
+            run.streams.finish()?
+        }
+        Scenario::Gestures => {
+            let set = gestures::gesture_set(options.seed, options.duration_s)?;
+            let mut run = Runner::new(sim, path, duration, progress)?;
+            gestures::run_gestures(&mut run, &mut depth, &set, options.seed, options.noise)?;
+            run.streams.finish()?
+        }
+    };
+    progress(1.0);
+    let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    Ok(SynthSummary { scenario, path: path.to_owned(), duration_s: duration, counts, bytes })
+}
