@@ -1,0 +1,54 @@
+//! The three gestures are distinguishable: 1-nearest-neighbour DTW (cowork_motion::dtw) on
+//! hand-relative-to-sternum trajectories, templates from one gesture set, queries from another
+//! (other people, sizes, speeds, positions, viewing angles, noise), as a 30 Hz depth tracker
+//! sees them.
+
+use cowork_motion::dtw::Knn;
+use cowork_msgs::msg::Skeleton;
+use cowork_people::{GestureKind, GestureSet, GestureSetConfig, Room, Sampler, SensorConfig, Side, hand_relative_to_sternum, resample_flat};
+
+/// Frames per descriptor: the 50-frame window of thesis Sec. 5.1.3.
+const FRAMES: usize = 50;
+
+fn descriptors(set: &GestureSet, sensor: SensorConfig, seed: u64) -> Vec<(GestureKind, Vec<f64>)> {
+    let msgs: Vec<Skeleton> = Sampler::new(set.timeline(), sensor, seed).expect("sampler").collect();
+    set.instances
+        .iter()
+        .map(|i| {
+            let window: Vec<Skeleton> = msgs
+                .iter()
+                .filter(|m| {
+                    let t = m.header.stamp.to_secs_f64();
+                    m.person_id == i.person_id && t >= i.start && t <= i.end
+                })
+                .cloned()
+                .collect();
+            let rows = hand_relative_to_sternum(&window, Side::Right).expect("features");
+            assert!(rows.len() > 20, "instance {} has {} frames", i.index, rows.len());
+            (i.kind, resample_flat(&rows, FRAMES))
+        })
+        .collect()
+}
+
+#[test]
+fn dtw_nearest_neighbour_tells_the_gestures_apart() {
+    let room = Room::default();
+    let train = GestureSet::generate(100, &GestureSetConfig { count: 30, ..Default::default() }, &room).expect("train set");
+    let test = GestureSet::generate(200, &GestureSetConfig { count: 60, ..Default::default() }, &room).expect("test set");
+    let mut knn = Knn::new(3, Some(10));
+    for (k, d) in descriptors(&train, SensorConfig::depth_tracker(), 1) {
+        knn.add(k.label(), d).expect("template");
+    }
+    let mut confusion = [[0usize; 3]; 3];
+    let queries = descriptors(&test, SensorConfig::depth_tracker(), 2);
+    for (truth, d) in &queries {
+        let (label, _) = knn.classify(d, 1).expect("classify");
+        let got = GestureKind::from_label(&label).expect("label");
+        let idx = |k: GestureKind| GestureKind::ALL.iter().position(|g| *g == k).unwrap_or(0);
+        confusion[idx(*truth)][idx(got)] += 1;
+    }
+    let correct: usize = (0..3).map(|i| confusion[i][i]).sum();
+    let accuracy = correct as f64 / queries.len() as f64;
+    println!("1-NN DTW accuracy {accuracy:.3} ({correct}/{}) ; confusion rows truth come/stop/handover: {confusion:?}", queries.len());
+    assert!(accuracy >= 0.9, "accuracy {accuracy}, confusion {confusion:?}");
+}
