@@ -15,7 +15,8 @@ fn orientation(msg: &Skeleton, s: Segment) -> Result<UnitQuaternion<f64>> {
     let p = msg.segment(s.name()).ok_or_else(|| PeopleError::MissingSegment { name: s.name().to_owned() })?;
     let o = &p.orientation;
     let q = Quaternion::new(o.w, o.x, o.y, o.z);
-    if !(q.norm() > 1e-6) {
+    let n = q.norm();
+    if n.is_nan() || n <= 1e-6 {
         return Err(PeopleError::Malformed { reason: format!("degenerate {} orientation", s.name()) });
     }
     Ok(UnitQuaternion::from_quaternion(q))
@@ -39,7 +40,7 @@ pub fn hand_relative_to_sternum(msgs: &[Skeleton], side: Side) -> Result<Vec<Vec
         return Ok(rows);
     }
     let arm = arm / msgs.len() as f64;
-    if !(arm > 1e-6) || !arm.is_finite() {
+    if !arm.is_finite() || arm <= 1e-6 {
         return Err(PeopleError::Malformed { reason: "arm length is zero or not finite".into() });
     }
     for r in rows.iter_mut() {
