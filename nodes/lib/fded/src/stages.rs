@@ -85,7 +85,7 @@ pub fn robot_lattice(buf: &mut Buffers, tile: u32, links: usize) {
             }
             let tx = u / t;
             let dx = (2 * u) as i64 - (2 * tx * t + t - 1) as i64;
-            let d2 = dx as u32 * dx as u32 + dy2;
+            let d2 = (dx * dx) as u32 + dy2;
             let slot = &mut buf.tile_best[(ty * tiles_x + tx) * links + l as usize];
             if d2 < slot[0] {
                 *slot = [d2, (row + u) as u32];

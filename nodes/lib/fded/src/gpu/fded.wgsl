@@ -139,7 +139,7 @@ fn project(p: vec4<f32>) -> vec2<f32> {
 // Rasterises triangle t; pass 0 lowers the depth, pass 1 marks the first triangle (lowest
 // index) that reaches the final depth of a pixel: the CPU z-buffer keeps the first triangle
 // of the nearest depth, since a later one must be strictly nearer to replace it.
-fn raster(t: u32, pass: u32) {
+fn raster(t: u32, stage: u32) {
     if (t >= P.tri_count) { return; }
     let a = vertices[triangles[3u * t]];
     let b = vertices[triangles[3u * t + 1u]];
@@ -181,7 +181,7 @@ fn raster(t: u32, pass: u32) {
             let z = 1.0 / (w0 * iza + w1 * izb + w2 * izc);
             let i = row + u32(u);
             let key = ~bitcast<u32>(z);
-            if (pass == 0u) {
+            if (stage == 0u) {
                 atomicMax(&zbuf[i], key);
             } else if (atomicLoad(&zbuf[i]) == key) {
                 atomicMax(&zbuf[n_px + i], ~t);

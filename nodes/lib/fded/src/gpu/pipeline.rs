@@ -404,7 +404,7 @@ impl GpuFded {
             &dev.staging,
             &mut [
                 bytemuck::cast_slice_mut(&mut self.link_out),
-                bytemuck::cast_slice_mut(&mut self.counters),
+                bytemuck::cast_slice_mut(&mut self.counters[..]),
                 bytemuck::cast_slice_mut(&mut self.host.filtered),
             ],
         )?;
