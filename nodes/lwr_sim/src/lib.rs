@@ -7,21 +7,29 @@
 //! `/lwr/gripper_command` (std_msgs/String `open` / `close`), `/external_wrench`
 //! (geometry_msgs/WrenchStamped: expressed in `header.frame_id` and applied at its origin; an empty
 //! frame or the base link means a base-frame wrench at the tool point).
-//! Outputs: `/clock`, `/joint_states`, `/tf` (links and objects), `/tf_static` (camera).
+//! Outputs: `/clock`, `/joint_states`, `/tf` (links and objects), `/tf_static` (camera),
+//! `/camera/depth/image_raw` (sensor_msgs/Image, `32FC1` m or `16UC1` mm) and
+//! `/camera/depth/camera_info` at the scene camera's `rate_hz` of simulated time (sensor-data
+//! QoS), rendered by a worker thread from the newest state (see [`depth`]).
 
+pub mod depth;
+
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Result, bail};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::{Quaternion, Transform, TransformStamped, Vector3, WrenchStamped};
 use cowork_msgs::rosgraph_msgs::Clock;
-use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use cowork_msgs::std_msgs::{Float64MultiArray, Header, String as RosString};
 use cowork_msgs::tf2_msgs::TFMessage;
 use cowork_ros::{RosNode, qos};
 use cowork_sim::{SimParams, Simulator, Wrench};
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
+
+use crate::depth::{DepthCamera, DepthConfig, FrameClock, Mailbox};
 
 /// Publication rates of the node, Hz of simulated time.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -49,6 +57,8 @@ pub struct LwrSimConfig {
     pub simulation: SimParams,
     /// Topic rates.
     pub publish: PublishRates,
+    /// The simulated depth camera.
+    pub depth: DepthConfig,
 }
 
 impl LwrSimConfig {
@@ -65,6 +75,7 @@ impl LwrSimConfig {
                 bail!("{place}: `{field}` = {v} must be in (0, {max}] Hz (one message per step at most)");
             }
         }
+        self.depth.encoding(place)?;
         Ok(())
     }
 }
@@ -97,6 +108,8 @@ pub struct Due {
     pub clock: bool,
     pub joint_states: bool,
     pub tf: bool,
+    /// A depth camera frame (at the scene camera's rate).
+    pub depth: bool,
 }
 
 /// The simulator with its message conversions.
@@ -109,6 +122,8 @@ pub struct LwrSim {
     steps: u64,
     base_frame: String,
     joint_state: JointState,
+    camera_clock: FrameClock,
+    config_depth: DepthConfig,
 }
 
 impl LwrSim {
@@ -118,7 +133,10 @@ impl LwrSim {
         let names = sim.model().joint_names().to_vec();
         let base_frame = sim.model().link_names()[0].clone();
         let n = names.len();
+        let camera_clock = FrameClock::new(sim.scene().camera.rate_hz);
         Self {
+            config_depth: config.depth.clone(),
+            camera_clock,
             every_clock: every(config.publish.clock_rate_hz),
             every_joint_states: every(config.publish.joint_state_rate_hz),
             every_tf: every(config.publish.tf_rate_hz),
@@ -202,6 +220,7 @@ impl LwrSim {
             clock: self.steps % self.every_clock == 0,
             joint_states: self.steps % self.every_joint_states == 0,
             tf: self.steps % self.every_tf == 0,
+            depth: self.camera_clock.due(self.sim.time_ns()),
         }
     }
 
@@ -266,6 +285,30 @@ fn transform(parent: &str, child: &str, stamp: Time, pose: &Isometry3<f64>) -> T
     }
 }
 
+/// Renders and publishes every snapshot the loop posts, until the mailbox closes.
+fn depth_worker(
+    mut camera: DepthCamera,
+    mailbox: &Mailbox,
+    image_pub: &cowork_ros::Publisher<Image>,
+    info_pub: &cowork_ros::Publisher<CameraInfo>,
+) -> Result<()> {
+    let mut image = Image::default();
+    let mut info = CameraInfo::default();
+    let mut done = None;
+    while let Some(snap) = mailbox.take(done.take()) {
+        match camera.render(&snap, &mut image, &mut info) {
+            Ok(()) => {
+                // The publisher takes ownership; the buffer is rebuilt next frame.
+                image_pub.publish(std::mem::take(&mut image))?;
+                info_pub.publish(info.clone())?;
+            }
+            Err(e) => tracing::warn!("depth frame at {:?} not rendered: {e:#}", snap.stamp),
+        }
+        done = Some(snap);
+    }
+    Ok(())
+}
+
 /// Runs the node until Ctrl-C or `duration` simulated seconds.
 pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>) -> Result<()> {
     let commands = node.subscription::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())?;
@@ -276,6 +319,21 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
     let tf = node.publisher::<TFMessage>("/tf", &qos::reliable_depth(100))?;
     let tf_static = node.publisher::<TFMessage>("/tf_static", &qos::latched())?;
     tf_static.publish(lwr.tf_static())?;
+    let camera = if lwr.config_depth.enabled {
+        let image = node.publisher::<Image>("/camera/depth/image_raw", &qos::sensor_data())?;
+        let info = node.publisher::<CameraInfo>("/camera/depth/camera_info", &qos::sensor_data())?;
+        let camera = DepthCamera::new(&lwr.sim, &lwr.config_depth)?;
+        let mailbox = Mailbox::new();
+        let worker = {
+            let mailbox = Arc::clone(&mailbox);
+            std::thread::Builder::new()
+                .name("lwr_sim_depth".into())
+                .spawn(move || depth_worker(camera, &mailbox, &image, &info))?
+        };
+        Some((mailbox, worker))
+    } else {
+        None
+    };
     tracing::info!(
         "lwr_sim running: {} joints, {} objects, pacing {pacing:?}",
         lwr.joint_state.name.len(),
@@ -308,6 +366,11 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         if due.tf {
             tf.publish(lwr.tf())?;
         }
+        if due.depth {
+            if let Some((mailbox, _)) = &camera {
+                mailbox.post(&lwr.sim);
+            }
+        }
         let sim_s = lwr.sim.time_ns() as f64 * 1e-9;
         if let Pacing::Rate(rate) = pacing {
             let target = start + Duration::from_secs_f64(sim_s / rate);
@@ -319,9 +382,20 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         if last_report.elapsed() >= Duration::from_secs(10) {
             last_report = Instant::now();
             tracing::info!(
-                "t_sim = {sim_s:.1} s, real-time factor {:.2}",
-                sim_s / start.elapsed().as_secs_f64()
+                "t_sim = {sim_s:.1} s, real-time factor {:.2}{}",
+                sim_s / start.elapsed().as_secs_f64(),
+                camera.as_ref().map_or(String::new(), |(m, _)| format!(
+                    ", depth frames dropped (renderer busy): {}",
+                    m.dropped()
+                ))
             );
+        }
+    }
+    if let Some((mailbox, worker)) = camera {
+        mailbox.close();
+        match worker.join() {
+            Ok(result) => result?,
+            Err(_) => bail!("the depth camera thread panicked"),
         }
     }
     tracing::info!("lwr_sim stopped at t_sim = {:.3} s", lwr.sim.time_ns() as f64 * 1e-9);

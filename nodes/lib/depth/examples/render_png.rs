@@ -40,11 +40,12 @@ struct Args {
     #[arg(long)]
     person: bool,
     /// Joint positions, deg (7 values, comma separated); the scene's start joints by default.
-    #[arg(long, value_delimiter = ',', num_args = 7)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     q_deg: Option<Vec<f64>>,
 }
 
-/// A person standing at `feet` (base frame, m), facing −y, right hand reaching to `target`.
+/// A person standing at `feet` (base frame, m), facing −y (toward the robot), right hand
+/// reaching to `target`.
 fn person(feet: Point3<f64>, target: Point3<f64>) -> Vec<Capsule> {
     let up = Vector3::z();
     let pelvis = feet + up * 0.95;
@@ -83,7 +84,8 @@ fn main() -> Result<()> {
         renderer.set_noise(Some(KinectNoise::with_seed(args.seed)))?;
     }
     let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
-    let people = if args.person { person(Point3::new(0.55, 1.0, 0.0), Point3::new(0.5, 0.3, 0.35)) } else { Vec::new() };
+    // The floor is 0.75 m below the table top (z = 0 in the scenes).
+    let people = if args.person { person(Point3::new(0.6, 0.95, -0.75), Point3::new(0.55, 0.35, 0.3)) } else { Vec::new() };
     let mut depth = DepthImage::default();
     let t = Instant::now();
     renderer.render(&q, &objects, &people, &mut depth)?;
@@ -114,7 +116,7 @@ fn main() -> Result<()> {
         let img = DepthImage { width: depth.width, height: depth.height, data: renderer.labels().iter().map(code).collect() };
         let path = args.out.with_extension("labels.png");
         img.write_png_range(&path, 1.0, 5.0)?;
-        println!("{}: labels (table, objects, links, person from blue to red)", path.display());
+        println!("{}: labels (table red, objects orange, links yellow to green, people blue)", path.display());
     }
     Ok(())
 }

@@ -1,0 +1,239 @@
+//! The simulated depth camera of `lwr_sim`: renders the scene camera's view of the table, the
+//! objects and the robot at the current joints, as `/camera/depth/image_raw` and
+//! `/camera/depth/camera_info`.
+//!
+//! Threading: the 1 kHz loop only copies a [`DepthSnapshot`] (stamp, joints, object poses: no
+//! allocation once warm) into a one-slot mailbox when a frame is due; a worker thread renders
+//! the newest snapshot and publishes it. If rendering falls behind (e.g. `--max` pacing), older
+//! snapshots are overwritten, so frames are dropped rather than the loop slowed; the count of
+//! dropped frames is logged.
+
+use std::sync::{Arc, Condvar, Mutex};
+
+use anyhow::{Context, Result, bail};
+use cowork_depth::{DepthImage, DepthRenderer, Encoding, Intrinsics, KinectNoise};
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::sensor_msgs::{CameraInfo, Image};
+use cowork_robot::JointVector;
+use cowork_sim::{Shape, Simulator};
+use nalgebra::Isometry3;
+use serde::{Deserialize, Serialize};
+
+/// The `depth:` block of the `lwr_sim` parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DepthConfig {
+    /// Render and publish the depth camera.
+    pub enabled: bool,
+    /// `sensor_msgs/Image` encoding: `32FC1` (m, NaN = no return) or `16UC1` (mm, 0 = no return).
+    pub encoding: String,
+    /// Add Kinect-like noise (depth-dependent error, disparity quantisation, dropouts).
+    pub noise: bool,
+    /// Seed of the noise sequence.
+    pub noise_seed: u64,
+    /// Rasterise on all cores (rayon) instead of the worker thread alone.
+    pub parallel: bool,
+}
+
+impl Default for DepthConfig {
+    fn default() -> Self {
+        Self { enabled: true, encoding: "32FC1".into(), noise: true, noise_seed: 1, parallel: false }
+    }
+}
+
+impl DepthConfig {
+    /// The encoding, checked.
+    pub fn encoding(&self, place: &str) -> Result<Encoding> {
+        match self.encoding.parse::<Encoding>() {
+            Ok(e) => Ok(e),
+            Err(_) => bail!("{place}: `depth.encoding` = {:?} must be \"32FC1\" or \"16UC1\"", self.encoding),
+        }
+    }
+}
+
+/// The simulator state a depth frame shows.
+#[derive(Debug, Clone, Default)]
+pub struct DepthSnapshot {
+    /// Simulated time of the state.
+    pub stamp: Time,
+    /// Joint positions, rad.
+    pub q: JointVector,
+    /// Object shapes and poses (base frame).
+    pub objects: Vec<(Shape, Isometry3<f64>)>,
+}
+
+impl DepthSnapshot {
+    /// Copies the simulator's current state (reusing the object buffer).
+    pub fn capture(&mut self, sim: &Simulator) {
+        self.stamp = Time::from_nanos(sim.time_ns());
+        self.q = *sim.joint_positions();
+        self.objects.clear();
+        self.objects.extend(sim.objects().iter().map(|o| (o.shape, o.pose)));
+    }
+}
+
+/// Renders snapshots into depth messages.
+#[derive(Debug)]
+pub struct DepthCamera {
+    renderer: DepthRenderer,
+    encoding: Encoding,
+    frame_id: String,
+    intrinsics: Intrinsics,
+    depth: DepthImage,
+}
+
+impl DepthCamera {
+    /// A camera for the simulator's scene camera (`scene.camera`: intrinsics, pose, frame id).
+    pub fn new(sim: &Simulator, config: &DepthConfig) -> Result<Self> {
+        let encoding = config.encoding("depth parameters")?;
+        let mut renderer = DepthRenderer::new(sim.model(), sim.scene()).context("depth camera of the scene")?;
+        renderer.set_parallel(config.parallel);
+        if config.noise {
+            renderer.set_noise(Some(KinectNoise::with_seed(config.noise_seed)))?;
+        }
+        Ok(Self {
+            intrinsics: *renderer.intrinsics(),
+            renderer,
+            encoding,
+            frame_id: sim.scene().camera.frame_id.clone(),
+            depth: DepthImage::default(),
+        })
+    }
+
+    /// Renders `snap` into `image` and fills `info` (both stamped with the snapshot's time, in
+    /// the camera's optical frame), reusing their buffers.
+    pub fn render(&mut self, snap: &DepthSnapshot, image: &mut Image, info: &mut CameraInfo) -> Result<()> {
+        self.renderer.render(&snap.q, &snap.objects, &[], &mut self.depth)?;
+        self.depth.write_image_msg(snap.stamp, &self.frame_id, self.encoding, image);
+        *info = self.intrinsics.to_camera_info(snap.stamp, &self.frame_id);
+        Ok(())
+    }
+
+    /// The renderer (e.g. for its labels).
+    pub fn renderer(&self) -> &DepthRenderer {
+        &self.renderer
+    }
+}
+
+/// One-slot, newest-wins mailbox from the simulation loop to the depth worker.
+#[derive(Debug, Default)]
+pub struct Mailbox {
+    slot: Mutex<Slot>,
+    ready: Condvar,
+}
+
+#[derive(Debug, Default)]
+struct Slot {
+    /// The snapshot to render next, if any.
+    next: Option<DepthSnapshot>,
+    /// A buffer handed back by the worker for reuse.
+    spare: Option<DepthSnapshot>,
+    /// Snapshots overwritten before the worker took them.
+    dropped: u64,
+    closed: bool,
+}
+
+impl Mailbox {
+    /// A shared mailbox.
+    pub fn new() -> Arc<Self> {
+        Arc::new(Self::default())
+    }
+
+    /// Posts the simulator's current state (replacing an untaken one). Called from the loop.
+    pub fn post(&self, sim: &Simulator) {
+        let Ok(mut slot) = self.slot.lock() else { return };
+        let mut snap = match slot.next.take() {
+            Some(old) => {
+                slot.dropped += 1;
+                old
+            }
+            None => slot.spare.take().unwrap_or_default(),
+        };
+        snap.capture(sim);
+        slot.next = Some(snap);
+        drop(slot);
+        self.ready.notify_one();
+    }
+
+    /// Waits for the next snapshot; `None` once closed. `done` is the previous snapshot, given
+    /// back for reuse.
+    pub fn take(&self, done: Option<DepthSnapshot>) -> Option<DepthSnapshot> {
+        let mut slot = self.slot.lock().ok()?;
+        if done.is_some() {
+            slot.spare = done;
+        }
+        loop {
+            if slot.closed {
+                return None;
+            }
+            if let Some(s) = slot.next.take() {
+                return Some(s);
+            }
+            slot = self.ready.wait(slot).ok()?;
+        }
+    }
+
+    /// Frames dropped so far because the worker was busy.
+    pub fn dropped(&self) -> u64 {
+        self.slot.lock().map(|s| s.dropped).unwrap_or(0)
+    }
+
+    /// Wakes the worker for good.
+    pub fn close(&self) {
+        if let Ok(mut slot) = self.slot.lock() {
+            slot.closed = true;
+        }
+        self.ready.notify_all();
+    }
+}
+
+/// Simulated-time schedule of the camera: frame `k` is due at the first step at or after
+/// `k / rate_hz`.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameClock {
+    period_ns: f64,
+    next_frame: u64,
+}
+
+impl FrameClock {
+    /// A clock at `rate_hz` (> 0), first frame at time 0.
+    pub fn new(rate_hz: f64) -> Self {
+        Self { period_ns: 1e9 / rate_hz, next_frame: 0 }
+    }
+
+    /// `true` (once per frame) when a frame is due at simulated time `time_ns`.
+    pub fn due(&mut self, time_ns: i64) -> bool {
+        let at = (self.next_frame as f64 * self.period_ns).round() as i64;
+        if time_ns >= at {
+            // Skip frames a jump in time passed over.
+            self.next_frame = (time_ns as f64 / self.period_ns).floor() as u64 + 1;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_clock_gives_30_frames_per_simulated_second() {
+        let mut c = FrameClock::new(30.0);
+        let due: Vec<i64> = (1..1000).map(|ms| ms * 1_000_000).filter(|t| c.due(*t)).collect();
+        assert_eq!(due.len(), 30);
+        assert_eq!(due[0], 1_000_000);
+        assert_eq!(due[1], 34_000_000);
+        assert_eq!(due[2], 67_000_000);
+    }
+
+    #[test]
+    fn config_encoding_is_checked() {
+        let c = DepthConfig { encoding: "16UC1".into(), ..Default::default() };
+        assert_eq!(c.encoding("f").unwrap(), Encoding::U16Millimetres);
+        let c = DepthConfig { encoding: "rgb8".into(), ..Default::default() };
+        let err = c.encoding("config/lwr_sim.yaml").unwrap_err().to_string();
+        assert!(err.contains("depth.encoding") && err.contains("rgb8"), "{err}");
+    }
+}
