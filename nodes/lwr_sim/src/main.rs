@@ -10,7 +10,8 @@ use cowork_sim::{Scene, Simulator};
 use lwr_sim::{LwrSim, LwrSimConfig, Pacing};
 
 /// Kinematic KUKA LWR IV+ simulator: integrates `/lwr/joint_velocity_command` at 1 kHz of
-/// simulated time and publishes `/clock`, `/joint_states` and `/tf`.
+/// simulated time and publishes `/clock`, `/joint_states`, `/tf` and the depth camera
+/// (`/camera/depth/image_raw`, `/camera/depth/camera_info`).
 #[derive(Debug, Parser)]
 #[command(version)]
 struct Args {

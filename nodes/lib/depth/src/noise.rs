@@ -182,7 +182,8 @@ impl KinectNoise {
                     || (x + 1 < width && far(row[x + 1]))
                     || up.is_some_and(|u| far(u[x]))
                     || down.is_some_and(|d| far(d[x]));
-                // Draw every number whatever the branch so the stream stays aligned per pixel.
+                // Two draws per pixel with a return, whatever the outcome: the stream's use
+                // depends only on the clean image.
                 let n: f64 = rng.sample(StandardNormal);
                 let drop_u: f64 = rng.random();
                 if drop_u < self.dropout_probability
