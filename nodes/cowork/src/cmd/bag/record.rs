@@ -1,0 +1,194 @@
+//! `cowork bag record`: live topics over DDS → MCAP bag, payloads untouched.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use cowork_bag::BagWriter;
+use cowork_ros::raw::RawSubscription;
+use cowork_ros::{NodeConfig, RosNode, qos, shutdown};
+
+/// Topics never recorded unless named: ROS 2 infrastructure, not data.
+const INFRASTRUCTURE: &[&str] = &["/rosout", "/parameter_events"];
+
+/// Arguments of `cowork bag record`.
+#[derive(Debug, Args)]
+pub struct RecordArgs {
+    /// The MCAP file to write (replaced if it exists).
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Topics to record; all discovered topics (except /rosout, /parameter_events) if none.
+    pub topics: Vec<String>,
+    /// Stop after this many seconds (wall clock); default: until Ctrl-C.
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// How often to look for new topics and publishers (s).
+    #[arg(long, default_value_t = 0.5)]
+    pub discovery_interval: f64,
+    /// History depth of each subscription (samples buffered per topic between polls).
+    #[arg(long, default_value_t = 100)]
+    pub depth: usize,
+}
+
+struct Recorded {
+    sub: RawSubscription,
+    type_name: String,
+    definition: String,
+    messages: u64,
+    bytes: u64,
+}
+
+/// QoS for a topic nobody has offered yet (named on the command line before discovery).
+fn fallback_qos(topic: &str, depth: usize) -> qos::QosProfile {
+    match topic {
+        "/clock" => qos::sensor_data(),
+        "/tf_static" => qos::latched(),
+        _ => qos::best_effort_depth(depth),
+    }
+}
+
+/// Records until `--duration` or Ctrl-C, then finishes the bag and prints counts per topic.
+pub fn run(args: &RecordArgs) -> Result<()> {
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration {d}: must be a finite number of seconds > 0");
+    }
+    if !(args.discovery_interval.is_finite() && args.discovery_interval > 0.0) {
+        bail!("--discovery-interval {}: must be > 0 s", args.discovery_interval);
+    }
+    let depth = args.depth.max(1);
+    shutdown::install();
+    let mut node = RosNode::new("cowork_bag_recorder", &NodeConfig::default())?;
+    let mut writer = BagWriter::create(&args.output)
+        .with_context(|| format!("creating bag {}", args.output.display()))?;
+    let named: BTreeSet<String> = args.topics.iter().cloned().collect();
+    let mut recorded: BTreeMap<String, Recorded> = BTreeMap::new();
+    let mut warned: BTreeSet<String> = BTreeSet::new();
+    let start = Instant::now();
+    let end = args.duration.map(|d| start + Duration::from_secs_f64(d));
+    let interval = Duration::from_secs_f64(args.discovery_interval);
+    let mut next_discovery = start;
+    let mut write_error = None;
+    tracing::info!(
+        "recording {} to {} (Ctrl-C to stop)",
+        if named.is_empty() { "all topics".to_owned() } else { named.iter().cloned().collect::<Vec<_>>().join(" ") },
+        args.output.display()
+    );
+    loop {
+        let now = Instant::now();
+        let stopping = shutdown::requested() || end.is_some_and(|e| now >= e);
+        if now >= next_discovery && !stopping {
+            discover(&mut node, &named, depth, &mut recorded, &mut warned);
+            next_discovery = now + interval;
+        }
+        let mut got = 0usize;
+        for (topic, r) in &mut recorded {
+            while let Some(sample) = r.sub.take() {
+                got += 1;
+                let publish = sample.source_time_ns.unwrap_or(sample.receive_time_ns);
+                if let Err(e) = writer.write_raw(
+                    topic,
+                    &r.type_name,
+                    &r.definition,
+                    sample.receive_time_ns,
+                    publish,
+                    &sample.data,
+                ) {
+                    write_error = Some(e);
+                    break;
+                }
+                r.messages += 1;
+                r.bytes += sample.data.len() as u64;
+            }
+        }
+        if write_error.is_some() || (stopping && got == 0) {
+            break;
+        }
+        if got == 0 {
+            std::thread::sleep(Duration::from_micros(500));
+        }
+    }
+    let elapsed = start.elapsed().as_secs_f64();
+    // Finish even after a write error: what was written stays readable.
+    let summary = writer
+        .finish()
+        .with_context(|| format!("finishing bag {}", args.output.display()))?;
+    println!("{:<40}  {:<36}  {:>9}  {:>12}", "topic", "type", "messages", "MB");
+    for (topic, r) in &recorded {
+        println!(
+            "{topic:<40}  {:<36}  {:>9}  {:>12.3}",
+            r.type_name,
+            r.messages,
+            r.bytes as f64 / 1e6
+        );
+    }
+    for t in named.iter().filter(|t| !recorded.contains_key(*t)) {
+        println!("{t:<40}  (never seen on the graph)");
+    }
+    println!(
+        "wrote {} messages on {} topics in {elapsed:.1} s to {}",
+        summary.message_count,
+        summary.channel_count,
+        args.output.display()
+    );
+    if let Some(e) = write_error {
+        return Err(e).with_context(|| format!("writing bag {}", args.output.display()));
+    }
+    Ok(())
+}
+
+/// Subscribes to every wanted topic seen on the graph that has no subscription yet.
+fn discover(
+    node: &mut RosNode,
+    named: &BTreeSet<String>,
+    depth: usize,
+    recorded: &mut BTreeMap<String, Recorded>,
+    warned: &mut BTreeSet<String>,
+) {
+    let mut types: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    for t in node.discovered_topics() {
+        types.entry(t.name).or_default().push(t.type_name);
+    }
+    for (topic, mut type_names) in types {
+        let wanted = if named.is_empty() {
+            !INFRASTRUCTURE.contains(&topic.as_str())
+        } else {
+            named.contains(&topic)
+        };
+        if !wanted || recorded.contains_key(&topic) {
+            continue;
+        }
+        type_names.dedup();
+        if type_names.len() > 1 && warned.insert(format!("types {topic}")) {
+            tracing::warn!("{topic} is published with several types ({}); recording {}", type_names.join(", "), type_names[0]);
+        }
+        let type_name = type_names.swap_remove(0);
+        let definition = match cowork_msgs::find_type(&type_name) {
+            Some(info) => (info.definition)(),
+            None => {
+                if warned.insert(format!("unknown {topic}")) {
+                    tracing::warn!(
+                        "{topic}: type {type_name} is not known to cowork_msgs; recording its payloads \
+                         untouched with an empty schema text"
+                    );
+                }
+                String::new()
+            }
+        };
+        let qos = node.offered_qos(&topic, depth).unwrap_or_else(|| fallback_qos(&topic, depth));
+        match node.raw_subscription(&topic, &type_name, &qos) {
+            Ok(sub) => {
+                tracing::info!("recording {topic} ({type_name})");
+                recorded.insert(topic, Recorded { sub, type_name, definition, messages: 0, bytes: 0 });
+            }
+            Err(e) => {
+                if warned.insert(format!("sub {topic}")) {
+                    tracing::warn!("cannot record {topic}: {e:#}");
+                }
+            }
+        }
+    }
+}
