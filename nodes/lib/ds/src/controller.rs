@@ -207,6 +207,12 @@ impl ControllerConfig {
             "must be in (0, 1]",
         )?;
         check(
+            "ik.posture_gain",
+            k.posture_gain,
+            k.posture_gain >= 0.0,
+            "must be ≥ 0 1/s",
+        )?;
+        check(
             "ik.position_margin",
             k.position_margin,
             k.position_margin >= 0.0,
@@ -423,6 +429,8 @@ pub struct DsController {
     last_qdot: JointVector,
     command_id: Option<u32>,
     held_orientation: UnitQuaternion<f64>,
+    /// Joint configuration at the start of the current command (posture task).
+    posture_q: JointVector,
     /// Resume ramp in [0, 1]: 0 after a hold, rising to 1 over `resume_time_s`.
     ramp: f64,
 }
@@ -444,6 +452,7 @@ impl DsController {
             last_qdot: JointVector::zeros(),
             command_id: None,
             held_orientation: UnitQuaternion::identity(),
+            posture_q: JointVector::zeros(),
             ramp: 0.0,
             model,
             cfg,
@@ -498,6 +507,7 @@ impl DsController {
         if self.command_id != Some(cmd.id) {
             self.command_id = Some(cmd.id);
             self.held_orientation = tip_pose.rotation;
+            self.posture_q = input.q;
             self.escape.reset();
         }
         let goal_error = (cmd.goal - x).norm();
@@ -587,12 +597,14 @@ impl DsController {
         }
 
         let twist = Twist::new(xdot.x, xdot.y, xdot.z, w.x, w.y, w.z);
-        let mut qdot = self.ik.solve(
+        let posture = (self.posture_q - input.q) * (self.cfg.ik.posture_gain * alpha);
+        let mut qdot = self.ik.solve_with_posture(
             &self.model,
             &self.poses,
             self.tip,
             &twist,
             task.as_ref(),
+            &posture,
             &mut d.ik,
         );
         let k = &self.cfg.ik;
@@ -618,6 +630,15 @@ impl DsController {
         };
         out.diagnostics = d;
         Ok(())
+    }
+
+    /// Holds the robot for a reason found outside [`step`](Self::step) (e.g. stale joint
+    /// states in the adapter): fills `out` with the braking command (the last command
+    /// decelerated towards zero at `brake_deceleration`, within the position limits at `q`)
+    /// and status [`Status::Held`]. The next valid [`step`](Self::step) resumes with the ramp.
+    /// Allocation-free.
+    pub fn hold(&mut self, q: &JointVector, out: &mut ControlOutput, reason: HoldReason) {
+        self.brake(q, out, reason);
     }
 
     /// Decelerates the last command towards zero, within the position limits.

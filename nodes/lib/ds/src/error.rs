@@ -26,6 +26,8 @@ pub enum Stream {
     Distances,
     /// Human state (`/human/state`).
     Human,
+    /// Joint positions (`/joint_states`).
+    JointStates,
 }
 
 impl std::fmt::Display for Stream {
@@ -33,6 +35,7 @@ impl std::fmt::Display for Stream {
         f.write_str(match self {
             Stream::Distances => "/fded/distances",
             Stream::Human => "/human/state",
+            Stream::JointStates => "/joint_states",
         })
     }
 }
@@ -83,6 +86,15 @@ pub enum Fault {
         what: &'static str,
         /// Its value.
         value: f64,
+    },
+    /// The adapter rejected the newest message of a stream (e.g. an unknown link name); the
+    /// robot is held until a valid one arrives.
+    #[error("rejected {stream} message: {reason}")]
+    Rejected {
+        /// The stream.
+        stream: Stream,
+        /// Why.
+        reason: &'static str,
     },
     /// The distance array names more links than the robot has.
     #[error("distances for {given} links, robot has {links}")]

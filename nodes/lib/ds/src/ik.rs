@@ -25,6 +25,12 @@ pub struct IkConfig {
     pub velocity_limit_fraction: f64,
     /// Joints stop this far inside their URDF position limits (rad), ≥ 0.
     pub position_margin: f64,
+    /// Gain (1/s) of a lowest-priority posture task that pulls the joints back towards the
+    /// configuration the current command started from, in what is left of the null space.
+    /// 0 (default) is the thesis's eq. 5.13 as is; > 0 stops the redundant elbow from drifting
+    /// (the damped pseudo-inverse and saturation otherwise let it wander over long motions).
+    #[serde(default)]
+    pub posture_gain: f64,
 }
 
 impl Default for IkConfig {
@@ -36,6 +42,7 @@ impl Default for IkConfig {
             max_angular_speed: 1.5,
             velocity_limit_fraction: 1.0,
             position_margin: 0.0,
+            posture_gain: 0.0,
         }
     }
 }
@@ -120,12 +127,33 @@ impl Ik {
         link_task: Option<&LinkTask>,
         report: &mut IkReport,
     ) -> JointVector {
+        self.solve_with_posture(model, poses, tip, twist, link_task, &JointVector::zeros(), report)
+    }
+
+    /// [`solve`](Self::solve) plus the posture task: `posture` is the desired joint velocity
+    /// (rad/s) of the lowest priority, projected into the null space of the end-effector task
+    /// and, when a link task is active, of the link task too.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_with_posture(
+        &mut self,
+        model: &RobotModel,
+        poses: &LinkPoses,
+        tip: usize,
+        twist: &Twist,
+        link_task: Option<&LinkTask>,
+        posture: &JointVector,
+        report: &mut IkReport,
+    ) -> JointVector {
         model.jacobian(poses, tip, &Point3::origin(), &mut self.jac);
         let pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
         let q1 = pinv * twist;
         *report = IkReport::default();
         let Some(task) = link_task else {
-            return q1;
+            if posture.iter().all(|v| *v == 0.0) {
+                return q1;
+            }
+            let n = null_space_projector(&self.jac, &pinv);
+            return q1 + self.secondary_scale(model, &q1, &(n * posture)) * (n * posture);
         };
         let in_link = poses.get(task.link).inverse_transform_point(&task.point);
         model.position_jacobian(poses, task.link, &in_link, &mut self.pj);
@@ -134,10 +162,36 @@ impl Ik {
         let desired = task.modulation * (x_l - task.obstacle_velocity) + task.obstacle_velocity;
         let jn: PositionJacobian = self.pj * n;
         let jn_pinv = damped_pseudo_inverse_3(&jn, self.cfg.link_damping);
-        let q = q1 + n * (jn_pinv * (desired - x_l));
+        let mut secondary = n * (jn_pinv * (desired - x_l));
+        if posture.iter().any(|v| *v != 0.0) {
+            // Null space of both tasks: N (I − (J_l N)† (J_l N)).
+            let n2 = n * (cowork_robot::JointMatrix::identity() - jn_pinv * jn);
+            secondary += n2 * posture;
+        }
+        let q = q1 + self.secondary_scale(model, &q1, &secondary) * secondary;
         report.link_velocity_desired = desired;
         report.link_velocity = self.pj * q;
         q
+    }
+}
+
+impl Ik {
+    /// Largest s ∈ [0, 1] with |q̇₁ + s q̇₂| within the speed limits (times the configured
+    /// fraction) wherever q̇₁ alone is: the lower-priority tasks use only the speed the
+    /// end-effector task leaves, so they never slow it through the uniform velocity scaling.
+    fn secondary_scale(&self, model: &RobotModel, q1: &JointVector, q2: &JointVector) -> f64 {
+        let mut s: f64 = 1.0;
+        for (i, l) in model.joint_limits().iter().enumerate() {
+            let vmax = l.velocity * self.cfg.velocity_limit_fraction;
+            let (a, b) = (q1[i], q2[i]);
+            if b == 0.0 || a.abs() >= vmax {
+                continue;
+            }
+            // |a + s b| ≤ vmax  ⇔  s ≤ (vmax − a sign(b)) / |b|.
+            let room = (vmax - a * b.signum()) / b.abs();
+            s = s.min(room.max(0.0));
+        }
+        s
     }
 }
 

@@ -30,6 +30,8 @@ fn stream_loss(stream: Stream) {
         match stream {
             Stream::Distances => input.distances.stamp = stamp,
             Stream::Human => input.human.stamp = stamp,
+            // Joint-state staleness is judged by the node adapter (`DsController::hold`).
+            Stream::JointStates => unreachable!("not a controller input stream"),
         }
         let res = ctl.step(&input, &mut out);
         let age = t - stamp;
