@@ -10,6 +10,10 @@
 //! * `*/clean` without noise, `*/kinect_noise` with the default Kinect model;
 //! * `render/robot_only`: fDED's virtual depth (robot layer only), single thread.
 //!
+//! * `render_cpu/*`: the single-thread cases timed in CPU time of the calling thread
+//!   (`/proc/thread-self/schedstat`), so a machine shared with other jobs still gives the cost
+//!   of a frame on one core rather than the share of it this process got.
+//!
 //! frames/s = 1 / time per iteration.
 
 use std::hint::black_box;
@@ -18,7 +22,8 @@ use std::path::PathBuf;
 use cowork_depth::{Capsule, DepthImage, DepthRenderer, KinectNoise, Layers};
 use cowork_robot::{JointVector, RobotModel};
 use cowork_sim::Scene;
-use criterion::{Criterion, criterion_group, criterion_main};
+use criterion::measurement::{Measurement, ValueFormatter};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use nalgebra::Point3;
 
 fn repo() -> PathBuf {
@@ -76,5 +81,87 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
+/// CPU time of the calling thread, ns (Linux `/proc/thread-self/schedstat`, first field).
+struct ThreadCpuTime;
+
+fn thread_cpu_ns() -> u64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().and_then(|v| v.parse().ok()))
+        .unwrap_or(0)
+}
+
+struct NsFormatter;
+
+impl ValueFormatter for NsFormatter {
+    fn scale_values(&self, typical: f64, values: &mut [f64]) -> &'static str {
+        let (factor, unit) = if typical < 1e3 {
+            (1.0, "ns")
+        } else if typical < 1e6 {
+            (1e-3, "µs")
+        } else {
+            (1e-6, "ms")
+        };
+        values.iter_mut().for_each(|v| *v *= factor);
+        unit
+    }
+    fn scale_throughputs(&self, _typical: f64, _t: &Throughput, _values: &mut [f64]) -> &'static str {
+        "ns"
+    }
+    fn scale_for_machines(&self, _values: &mut [f64]) -> &'static str {
+        "ns"
+    }
+}
+
+impl Measurement for ThreadCpuTime {
+    type Intermediate = u64;
+    type Value = u64;
+    fn start(&self) -> u64 {
+        thread_cpu_ns()
+    }
+    fn end(&self, start: u64) -> u64 {
+        thread_cpu_ns().saturating_sub(start)
+    }
+    fn add(&self, a: &u64, b: &u64) -> u64 {
+        a + b
+    }
+    fn zero(&self) -> u64 {
+        0
+    }
+    fn to_f64(&self, v: &u64) -> f64 {
+        *v as f64
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        &NsFormatter
+    }
+}
+
+fn bench_cpu(c: &mut Criterion<ThreadCpuTime>) {
+    let model = RobotModel::from_urdf_file(repo().join("config/robot/lwr4plus.urdf")).expect("URDF");
+    let scene = Scene::from_file(&repo().join("config/scenes/stacking.yaml")).expect("scene");
+    let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
+    let q = JointVector::from_row_slice(&[0.3, 0.6, 0.0, 1.3, 0.0, 0.8, 0.0]);
+    let people = person();
+    let mut out = DepthImage::default();
+    let mut group = c.benchmark_group("render_cpu");
+    for noise in [false, true] {
+        let mut r = DepthRenderer::new(&model, &scene).expect("renderer");
+        r.set_parallel(false);
+        if noise {
+            r.set_noise(Some(KinectNoise::with_seed(1))).expect("noise");
+        }
+        let name = format!("single_thread/{}", if noise { "kinect_noise" } else { "clean" });
+        group.bench_function(name, |b| {
+            b.iter(|| r.render(black_box(&q), &objects, &people, &mut out).expect("render"))
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(benches, bench);
-criterion_main!(benches);
+criterion_group! {
+    name = cpu;
+    config = Criterion::default().with_measurement(ThreadCpuTime);
+    targets = bench_cpu
+}
+criterion_main!(benches, cpu);
