@@ -76,6 +76,18 @@ pub enum Error {
         /// Why not.
         reason: &'static str,
     },
+    /// A benchmark scene could not be rendered.
+    #[error("benchmark scene: {message}")]
+    Scene {
+        /// The renderer's message.
+        message: String,
+    },
+    /// Benchmark output could not be written.
+    #[error("writing benchmark output: {message}")]
+    Output {
+        /// The I/O error.
+        message: String,
+    },
     /// The worker thread pool could not be created.
     #[error("cannot start {threads} worker threads: {message}")]
     ThreadPool {

@@ -41,6 +41,7 @@
 //! ```
 
 pub mod baseline;
+pub mod bench;
 mod cam;
 mod error;
 pub mod gpu;

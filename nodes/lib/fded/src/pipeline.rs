@@ -352,7 +352,7 @@ impl Fded {
                 let parts = pool.current_num_threads();
                 let rows = h.div_ceil(parts);
                 pool.install(|| {
-                    split_run(&mut buf.filtered, rows * w, 0, &|start, chunk: &mut [f32]| {
+                    split_run(&mut buf.filtered, rows * w, 0, &|start: usize, chunk: &mut [f32]| {
                         filter_rows(depth, vd, rx, ry, &k, start / w, chunk);
                     });
                 });
