@@ -1,0 +1,650 @@
+//! The `ds_controller` node: a thin ROS 2 adapter around [`cowork_ds::DsController`].
+//!
+//! Two threads:
+//! - the **real-time loop** ([`rt_loop`]) steps the controller every period (1 ms of wall time,
+//!   or of `/clock` time with `use_sim_time`). It reads the latest inputs from a [`Mailbox`]
+//!   of `Copy` data and sends `Copy` [`RtOutput`]s through a bounded channel; it never
+//!   allocates, logs, serialises or publishes;
+//! - the **ROS side** ([`run`]) converts and validates messages ([`Adapter`]) into the mailbox,
+//!   and publishes what the loop produced: `/lwr/joint_velocity_command` (every output) and
+//!   `/motion/status` (on every change and at `status_rate_hz`).
+//!
+//! Inputs are stamped with their arrival time on the node's clock: the watchdog is about a
+//! stream going quiet, whatever stamps its producer writes. Bad input never stops the node: a
+//! bad command is aborted with its reason and the robot held; bad distances (NaN, infinite,
+//! zero normal, unknown link) hold the robot with the reason until valid ones arrive.
+
+use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Result, bail};
+use cowork_ds::goal::Reach;
+use cowork_ds::primitive::{ConstantSpeed, Linear};
+use cowork_ds::{
+    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, Fault, HoldReason,
+    HumanInput, HumanMode, HumanState, LinkDistance, MotionCommand, Primitive, Status, Stream,
+};
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::msg::{
+    HumanState as HumanStateMsg, LinkDistances, MotionCommand as MotionCommandMsg, MotionStatus,
+};
+use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::std_msgs::{Float64MultiArray, Header};
+use cowork_robot::{DOF, JointVector, MAX_LINKS, RobotModel};
+use cowork_ros::{RosNode, qos};
+use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// The `ds_controller: ros__parameters:` block.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Take time from `/clock`.
+    pub use_sim_time: bool,
+    /// Minimum rate of `/motion/status` (Hz); it is also published on every change.
+    pub status_rate_hz: f64,
+    /// Gain k (1/s) of a `KIND_LINEAR` command without parameters.
+    pub default_linear_gain: f64,
+    /// The controller (period, watchdog bound, speeds, modulation, IK).
+    pub controller: ControllerConfig,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            use_sim_time: false,
+            status_rate_hz: 50.0,
+            default_linear_gain: 2.0,
+            controller: ControllerConfig::default(),
+        }
+    }
+}
+
+impl Params {
+    /// Rejects NaN and out-of-range values; `place` names the file.
+    pub fn validate(&self, place: &str) -> Result<()> {
+        self.controller
+            .validate()
+            .map_err(|e| anyhow::anyhow!("{place}: controller: {e}"))?;
+        for (field, v) in [
+            ("status_rate_hz", self.status_rate_hz),
+            ("default_linear_gain", self.default_linear_gain),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{place}: `{field}` = {v} must be a positive number");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A latest-value mailbox of `Copy` data between the ROS side and the real-time loop. The lock
+/// is held only for a copy (no allocation, no I/O under it).
+#[derive(Debug, Default)]
+pub struct Mailbox<T: Copy>(Mutex<T>);
+
+impl<T: Copy> Mailbox<T> {
+    /// A mailbox holding `value`.
+    pub fn new(value: T) -> Self {
+        Self(Mutex::new(value))
+    }
+
+    /// A copy of the current value.
+    pub fn read(&self) -> T {
+        // A panic while holding the lock cannot leave a `Copy` value half-written.
+        *self.0.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// Changes the value in place.
+    pub fn update(&self, f: impl FnOnce(&mut T)) {
+        f(&mut self.0.lock().unwrap_or_else(|p| p.into_inner()));
+    }
+}
+
+/// Everything the real-time loop reads, `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RtInputs {
+    /// Latest joint positions (rad) and their arrival time (s); `None` before the first.
+    pub joints: Option<(JointVector, f64)>,
+    /// The motion to run.
+    pub command: MotionCommand,
+    /// Latest distances (stamp = arrival time).
+    pub distances: Distances,
+    /// Latest human state (stamp = arrival time).
+    pub human: HumanInput,
+    /// The newest distances message was rejected by the adapter (with this reason).
+    pub distances_rejected: Option<&'static str>,
+}
+
+impl Default for RtInputs {
+    fn default() -> Self {
+        Self {
+            joints: None,
+            command: MotionCommand {
+                id: 0,
+                primitive: Primitive::Hold,
+                goal: Vector3::zeros(),
+                orientation: None,
+                end_effector_avoidance: true,
+            },
+            distances: Distances::NEVER,
+            human: HumanInput { stamp: f64::NEG_INFINITY, state: HumanState::default() },
+            distances_rejected: None,
+        }
+    }
+}
+
+/// One result of the real-time loop, `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RtOutput {
+    /// Time of the step (s, node clock).
+    pub time: f64,
+    /// Joint velocity command (rad/s).
+    pub qdot: JointVector,
+    /// Motion status.
+    pub status: Status,
+    /// Command the step ran.
+    pub command_id: u32,
+    /// ‖x − g‖ (m); NaN when held without a joint reading.
+    pub goal_error: f64,
+    /// No `/joint_states` yet: nothing was computed.
+    pub waiting_for_joints: bool,
+}
+
+/// The node's clock, shared by both threads: wall time (s since the epoch) or `/clock` time
+/// mirrored by the ROS side into an atomic.
+#[derive(Debug, Clone)]
+pub enum Clock {
+    /// Wall clock.
+    Wall,
+    /// `/clock` time in ns (negative before the first tick).
+    Sim(Arc<AtomicI64>),
+}
+
+impl Clock {
+    /// Now (s); `None` while simulated time has not started.
+    pub fn now(&self) -> Option<f64> {
+        match self {
+            Clock::Wall => Some(
+                SystemTime::now()
+                    .duration_since(UNIX_EPOCH)
+                    .map(|d| d.as_secs_f64())
+                    .unwrap_or(0.0),
+            ),
+            Clock::Sim(ns) => {
+                let v = ns.load(Ordering::Acquire);
+                (v >= 0).then(|| v as f64 * 1e-9)
+            }
+        }
+    }
+}
+
+/// One control step on the latest inputs at time `t` (s). Allocation-free.
+pub fn rt_step(ctl: &mut DsController, inputs: &RtInputs, t: f64, out: &mut ControlOutput) -> RtOutput {
+    let stale_after = ctl.config().stale_after_s;
+    let Some((q, q_stamp)) = inputs.joints else {
+        return RtOutput {
+            time: t,
+            qdot: JointVector::zeros(),
+            status: Status::Held(HoldReason::Command),
+            command_id: inputs.command.id,
+            goal_error: f64::NAN,
+            waiting_for_joints: true,
+        };
+    };
+    let age = t - q_stamp;
+    if !(age <= stale_after) {
+        let f = Fault::Stale { stream: Stream::JointStates, age_s: age, bound_s: stale_after };
+        ctl.hold(&q, out, HoldReason::Fault(f));
+    } else if let Some(reason) = inputs.distances_rejected {
+        let f = Fault::Rejected { stream: Stream::Distances, reason };
+        ctl.hold(&q, out, HoldReason::Fault(f));
+    } else {
+        let input = ControlInput {
+            time: t,
+            q,
+            command: inputs.command,
+            distances: inputs.distances,
+            human: inputs.human,
+        };
+        // A fault is reported through `out.status` (Held with the fault).
+        let _ = ctl.step(&input, out);
+    }
+    RtOutput {
+        time: t,
+        qdot: out.qdot,
+        status: out.status,
+        command_id: inputs.command.id,
+        goal_error: out.diagnostics.goal_error_m,
+        waiting_for_joints: false,
+    }
+}
+
+/// The real-time loop: one [`rt_step`] per period of `clock` until `stop`. With the wall clock
+/// it sleeps to absolute deadlines; with `/clock` it steps once per period of simulated time.
+/// Outputs that do not fit the channel are dropped (the ROS side only needs the newest).
+pub fn rt_loop(
+    mut ctl: DsController,
+    inputs: Arc<Mailbox<RtInputs>>,
+    outputs: SyncSender<RtOutput>,
+    clock: Clock,
+    stop: Arc<AtomicBool>,
+) {
+    let period = ctl.config().period_s;
+    let mut out = ControlOutput::default();
+    let start = Instant::now();
+    let mut k: u64 = 0;
+    let mut last_t = f64::NEG_INFINITY;
+    while !stop.load(Ordering::Relaxed) {
+        match clock {
+            Clock::Wall => {
+                k += 1;
+                let deadline = start + Duration::from_secs_f64(k as f64 * period);
+                let now = Instant::now();
+                if deadline > now {
+                    std::thread::sleep(deadline - now);
+                } else if now - deadline > Duration::from_secs_f64(10.0 * period) {
+                    // Overrun (suspended process): resynchronise instead of bursting.
+                    k = ((now - start).as_secs_f64() / period) as u64;
+                }
+            }
+            Clock::Sim(_) => {
+                let due = clock.now().is_some_and(|t| t - last_t >= period * (1.0 - 1e-6));
+                if !due {
+                    std::thread::sleep(Duration::from_micros(100));
+                    continue;
+                }
+            }
+        }
+        let Some(t) = clock.now() else { continue };
+        last_t = t;
+        let snapshot = inputs.read();
+        let o = rt_step(&mut ctl, &snapshot, t, &mut out);
+        let _ = outputs.try_send(o);
+    }
+}
+
+/// Why the adapter rejected a message.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rejection {
+    /// Human-readable reason, naming the field.
+    pub reason: String,
+}
+
+/// Message conversions and validation (no I/O).
+#[derive(Debug, Clone)]
+pub struct Adapter {
+    joint_names: Vec<String>,
+    link_names: Vec<String>,
+    reach: Reach,
+    far_speed: f64,
+    default_linear_gain: f64,
+}
+
+impl Adapter {
+    /// For `model` with `params`.
+    pub fn new(model: &RobotModel, params: &Params) -> Self {
+        Self {
+            joint_names: model.joint_names().to_vec(),
+            link_names: model.link_names().to_vec(),
+            reach: Reach::of_model(model),
+            far_speed: params.controller.scaling.far_speed,
+            default_linear_gain: params.default_linear_gain,
+        }
+    }
+
+    /// Name of link `i` (for reasons).
+    pub fn link_name(&self, i: usize) -> &str {
+        self.link_names.get(i).map(String::as_str).unwrap_or("?")
+    }
+
+    /// `/joint_states` → joint positions in model order (by name; by position when the
+    /// message has no names).
+    pub fn joint_state(&self, msg: &JointState) -> Result<JointVector, Rejection> {
+        let mut q = JointVector::zeros();
+        if msg.name.is_empty() {
+            if msg.position.len() != DOF {
+                return Err(Rejection { reason: format!("{} positions without names, expected {DOF}", msg.position.len()) });
+            }
+            q.copy_from_slice(&msg.position);
+        } else {
+            if msg.name.len() != msg.position.len() {
+                return Err(Rejection {
+                    reason: format!("{} names but {} positions", msg.name.len(), msg.position.len()),
+                });
+            }
+            for (j, want) in self.joint_names.iter().enumerate() {
+                let Some(i) = msg.name.iter().position(|n| n == want) else {
+                    return Err(Rejection { reason: format!("joint {want} missing") });
+                };
+                q[j] = msg.position[i];
+            }
+        }
+        if let Some((j, v)) = q.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+            return Err(Rejection { reason: format!("position of {} is {v}", self.joint_names[j]) });
+        }
+        Ok(q)
+    }
+
+    /// `/fded/distances` → per-link distances by URDF link (by name; by position for entries
+    /// without a name). Non-finite values and zero normals are passed on for the controller's
+    /// validation (it holds the robot, naming the link); structural errors are rejected here.
+    pub fn distances(&self, msg: &LinkDistances, stamp: f64) -> Result<Distances, Rejection> {
+        let mut d = Distances::clear(stamp);
+        d.count = self.link_names.len().min(MAX_LINKS);
+        if msg.links.len() > d.count {
+            return Err(Rejection {
+                reason: format!("{} link entries, the robot has {} links", msg.links.len(), d.count),
+            });
+        }
+        for (pos, l) in msg.links.iter().enumerate() {
+            let i = if l.link_name.is_empty() {
+                pos
+            } else {
+                self.link_names.iter().position(|n| *n == l.link_name).ok_or_else(|| Rejection {
+                    reason: format!("unknown link name {:?} in entry {pos}", l.link_name),
+                })?
+            };
+            let p = |p: &cowork_msgs::geometry_msgs::Point| Point3::new(p.x, p.y, p.z);
+            let v = |v: &cowork_msgs::geometry_msgs::Vector3| Vector3::new(v.x, v.y, v.z);
+            d.links[i] = LinkDistance {
+                valid: l.valid,
+                distance: l.distance,
+                robot_point: p(&l.robot_point),
+                obstacle_point: p(&l.obstacle_point),
+                normal: v(&l.normal),
+                obstacle_velocity: v(&l.obstacle_velocity),
+            };
+        }
+        Ok(d)
+    }
+
+    /// `/human/state` → what the controller needs.
+    pub fn human(&self, msg: &HumanStateMsg) -> Result<HumanState, Rejection> {
+        let mode = match msg.mode {
+            HumanStateMsg::MODE_FAR => HumanMode::Far,
+            HumanStateMsg::MODE_INTERACTION => HumanMode::Interaction,
+            m => return Err(Rejection { reason: format!("unknown mode {m} (0 far, 1 interaction)") }),
+        };
+        Ok(HumanState { present: msg.present, mode, stopped: msg.stopped })
+    }
+
+    /// `/motion/command` → the motion, or why it cannot run.
+    pub fn command(&self, msg: &MotionCommandMsg) -> Result<MotionCommand, Rejection> {
+        let bad = |reason: String| Err(Rejection { reason });
+        let primitive = match msg.kind {
+            MotionCommandMsg::KIND_LINEAR => {
+                let gain = msg.parameters.first().copied().unwrap_or(self.default_linear_gain);
+                Primitive::Linear(Linear { gain })
+            }
+            MotionCommandMsg::KIND_CONSTANT_SPEED => {
+                let speed = if msg.nominal_speed == 0.0 { self.far_speed } else { msg.nominal_speed };
+                let smoothing = msg.parameters.first().copied().unwrap_or(ConstantSpeed::DEFAULT_SMOOTHING);
+                Primitive::ConstantSpeed(ConstantSpeed { speed, smoothing })
+            }
+            MotionCommandMsg::KIND_HOLD => Primitive::Hold,
+            k @ (MotionCommandMsg::KIND_DMP | MotionCommandMsg::KIND_GMR | MotionCommandMsg::KIND_CGMR) => {
+                return bad(format!(
+                    "primitive kind {k} ({}) is not executed by ds_controller; send KIND_LINEAR or KIND_CONSTANT_SPEED",
+                    match k {
+                        MotionCommandMsg::KIND_DMP => "DMP",
+                        MotionCommandMsg::KIND_GMR => "GMR",
+                        _ => "C-GMR",
+                    }
+                ));
+            }
+            k => return bad(format!("unknown primitive kind {k}")),
+        };
+        if let Some((what, value)) = primitive.invalid_parameter() {
+            return bad(format!("primitive parameter {what} = {value} must be finite and > 0"));
+        }
+        let gp = &msg.goal.position;
+        let goal = Vector3::new(gp.x, gp.y, gp.z);
+        if !goal.iter().all(|v| v.is_finite()) {
+            return bad(format!("goal position ({}, {}, {}) is not finite", gp.x, gp.y, gp.z));
+        }
+        let o = &msg.goal.orientation;
+        let orientation = if msg.hold_orientation || matches!(primitive, Primitive::Hold) {
+            None
+        } else {
+            let q = Quaternion::new(o.w, o.x, o.y, o.z);
+            if !q.coords.iter().all(|v| v.is_finite()) || q.norm() < 0.5 {
+                return bad(format!("goal orientation ({}, {}, {}, {}) is not a unit quaternion", o.x, o.y, o.z, o.w));
+            }
+            Some(UnitQuaternion::from_quaternion(q))
+        };
+        if !matches!(primitive, Primitive::Hold)
+            && let Err(e) = self.reach.check(&goal)
+        {
+            return bad(e.to_string());
+        }
+        Ok(MotionCommand { id: msg.id, primitive, goal, orientation, end_effector_avoidance: true })
+    }
+
+    /// A reason for a status message: the controller's fault with link names.
+    pub fn reason(&self, o: &RtOutput) -> String {
+        if o.waiting_for_joints {
+            return "waiting for /joint_states".into();
+        }
+        match o.status {
+            Status::Running | Status::Converged => String::new(),
+            Status::Held(HoldReason::Command) if o.command_id == 0 => "waiting for /motion/command".into(),
+            Status::Held(HoldReason::Command) => "hold command".into(),
+            Status::Held(HoldReason::SpeedZero) => "speed scale 0 (stop)".into(),
+            Status::Held(HoldReason::Fault(f)) => match f {
+                Fault::NonFinite { what, link } if link != usize::MAX => {
+                    format!("non-finite {what} for link {} on /fded/distances", self.link_name(link))
+                }
+                Fault::ZeroNormal { link } => format!("zero obstacle normal for link {} on /fded/distances", self.link_name(link)),
+                other => other.to_string(),
+            },
+        }
+    }
+}
+
+/// `/motion/status` state of an output.
+pub fn state_of(status: &Status) -> u8 {
+    match status {
+        Status::Running => MotionStatus::STATE_RUNNING,
+        Status::Converged => MotionStatus::STATE_CONVERGED,
+        Status::Held(_) => MotionStatus::STATE_HELD,
+    }
+}
+
+/// How [`run`] ends.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Stop after this many wall seconds.
+    pub duration_s: Option<f64>,
+    /// Stop when raised (tests); Ctrl-C always stops.
+    pub stop: Option<Arc<AtomicBool>>,
+}
+
+/// Runs the node: starts the real-time loop and serves the ROS side until stopped.
+pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunOptions) -> Result<()> {
+    let adapter = Adapter::new(&model, params);
+    let ctl = DsController::new(model, params.controller)
+        .map_err(|e| anyhow::anyhow!("controller: {e}"))?;
+    let joint_sub = node.subscription::<JointState>("/joint_states", &qos::reliable())?;
+    let dist_sub = node.subscription::<LinkDistances>("/fded/distances", &qos::reliable())?;
+    let human_sub = node.subscription::<HumanStateMsg>("/human/state", &qos::reliable())?;
+    let cmd_sub = node.subscription::<MotionCommandMsg>("/motion/command", &qos::reliable_depth(10))?;
+    let vel_pub = node.publisher::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())?;
+    let status_pub = node.publisher::<MotionStatus>("/motion/status", &qos::reliable_depth(10))?;
+
+    let clock = if params.use_sim_time { Clock::Sim(Arc::new(AtomicI64::new(-1))) } else { Clock::Wall };
+    let inputs = Arc::new(Mailbox::new(RtInputs::default()));
+    let (tx, rx) = std::sync::mpsc::sync_channel::<RtOutput>(256);
+    let rt_stop = Arc::new(AtomicBool::new(false));
+    let rt = {
+        let (inputs, clock, stop) = (Arc::clone(&inputs), clock.clone(), Arc::clone(&rt_stop));
+        std::thread::Builder::new()
+            .name("ds_controller-rt".into())
+            .spawn(move || rt_loop(ctl, inputs, tx, clock, stop))?
+    };
+    tracing::info!(
+        "ds_controller running at {:.0} Hz ({} time), watchdog {:.3} s",
+        1.0 / params.controller.period_s,
+        if params.use_sim_time { "/clock" } else { "wall" },
+        params.controller.stale_after_s
+    );
+    let result = serve(&node, &adapter, params, options, &clock, &inputs, &rx, ServeIo {
+        joint_sub: &joint_sub,
+        dist_sub: &dist_sub,
+        human_sub: &human_sub,
+        cmd_sub: &cmd_sub,
+        vel_pub: &vel_pub,
+        status_pub: &status_pub,
+    });
+    rt_stop.store(true, Ordering::Relaxed);
+    if rt.join().is_err() {
+        tracing::error!("real-time loop panicked");
+    }
+    // Leave the robot still.
+    let _ = vel_pub.publish(Float64MultiArray::from_vec(vec![0.0; DOF]));
+    tracing::info!("ds_controller stopped");
+    result
+}
+
+struct ServeIo<'a> {
+    joint_sub: &'a cowork_ros::Subscription<JointState>,
+    dist_sub: &'a cowork_ros::Subscription<LinkDistances>,
+    human_sub: &'a cowork_ros::Subscription<HumanStateMsg>,
+    cmd_sub: &'a cowork_ros::Subscription<MotionCommandMsg>,
+    vel_pub: &'a cowork_ros::Publisher<Float64MultiArray>,
+    status_pub: &'a cowork_ros::Publisher<MotionStatus>,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn serve(
+    node: &RosNode,
+    adapter: &Adapter,
+    params: &Params,
+    options: &RunOptions,
+    clock: &Clock,
+    inputs: &Mailbox<RtInputs>,
+    rx: &Receiver<RtOutput>,
+    io: ServeIo<'_>,
+) -> Result<()> {
+    let started = Instant::now();
+    let status_every = Duration::from_secs_f64(1.0 / params.status_rate_hz);
+    let mut last_status: Option<(u32, u8, String)> = None;
+    let mut last_status_at = Instant::now();
+    // The command that was aborted (id, reason): its statuses read ABORTED while it is current.
+    let mut aborted: Option<(u32, String)> = None;
+    let stamp_now = |clock: &Clock| clock.now().unwrap_or(f64::NEG_INFINITY);
+    loop {
+        if cowork_ros::shutdown::requested()
+            || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
+            || options.duration_s.is_some_and(|d| started.elapsed().as_secs_f64() >= d)
+        {
+            return Ok(());
+        }
+        if let Clock::Sim(ns) = clock {
+            if node.clock_started() {
+                ns.store(node.now().to_nanos(), Ordering::Release);
+            }
+        }
+        while let Some(m) = io.joint_sub.take() {
+            match adapter.joint_state(&m) {
+                Ok(q) => {
+                    let t = stamp_now(clock);
+                    inputs.update(|i| i.joints = Some((q, t)));
+                }
+                Err(r) => tracing::warn!("/joint_states rejected: {}", r.reason),
+            }
+        }
+        while let Some(m) = io.dist_sub.take() {
+            let t = stamp_now(clock);
+            match adapter.distances(&m, t) {
+                Ok(d) => inputs.update(|i| {
+                    i.distances = d;
+                    i.distances_rejected = None;
+                }),
+                Err(r) => {
+                    tracing::warn!("/fded/distances rejected, robot held: {}", r.reason);
+                    inputs.update(|i| i.distances_rejected = Some("malformed message (see the log)"));
+                    publish_status(io.status_pub, node.now(), inputs.read().command.id, MotionStatus::STATE_HELD,
+                        format!("rejected /fded/distances: {}", r.reason), f64::NAN)?;
+                }
+            }
+        }
+        while let Some(m) = io.human_sub.take() {
+            match adapter.human(&m) {
+                Ok(h) => {
+                    let t = stamp_now(clock);
+                    inputs.update(|i| i.human = HumanInput { stamp: t, state: h });
+                }
+                Err(r) => tracing::warn!("/human/state rejected: {}", r.reason),
+            }
+        }
+        while let Some(m) = io.cmd_sub.take() {
+            match adapter.command(&m) {
+                Ok(c) => {
+                    tracing::info!("motion command {} {:?} → ({:.3}, {:.3}, {:.3}) {}", c.id, c.primitive, c.goal.x, c.goal.y, c.goal.z, m.label);
+                    aborted = None;
+                    inputs.update(|i| i.command = c);
+                }
+                Err(r) => {
+                    tracing::warn!("motion command {} aborted, robot held: {}", m.id, r.reason);
+                    inputs.update(|i| {
+                        i.command = MotionCommand { id: m.id, primitive: Primitive::Hold, ..i.command };
+                    });
+                    publish_status(io.status_pub, node.now(), m.id, MotionStatus::STATE_ABORTED, r.reason.clone(), f64::NAN)?;
+                    last_status = Some((m.id, MotionStatus::STATE_ABORTED, r.reason.clone()));
+                    last_status_at = Instant::now();
+                    aborted = Some((m.id, r.reason));
+                }
+            }
+        }
+        // Outputs: wait briefly for the next one, then take all that are there; the newest
+        // command wins.
+        let mut newest = match rx.recv_timeout(Duration::from_micros(500)) {
+            Ok(o) => Some(o),
+            Err(_) => None,
+        };
+        loop {
+            match rx.try_recv() {
+                Ok(o) => newest = Some(o),
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => bail!("the real-time loop stopped"),
+            }
+        }
+        let Some(o) = newest else { continue };
+        if !o.waiting_for_joints {
+            io.vel_pub.publish(Float64MultiArray::from_vec(o.qdot.as_slice().to_vec()))?;
+        }
+        let (state, reason) = match &aborted {
+            Some((id, reason)) if *id == o.command_id => (MotionStatus::STATE_ABORTED, reason.clone()),
+            _ => (state_of(&o.status), adapter.reason(&o)),
+        };
+        let key = (o.command_id, state, reason);
+        if last_status.as_ref() != Some(&key) || last_status_at.elapsed() >= status_every {
+            publish_status(io.status_pub, node.now(), key.0, key.1, key.2.clone(), o.goal_error)?;
+            if last_status.as_ref().is_none_or(|l| l.1 != key.1 || l.2 != key.2) {
+                tracing::info!("status: command {} state {} {}", key.0, key.1, key.2);
+            }
+            last_status = Some(key);
+            last_status_at = Instant::now();
+        }
+    }
+}
+
+fn publish_status(
+    publisher: &cowork_ros::Publisher<MotionStatus>,
+    stamp: Time,
+    command_id: u32,
+    state: u8,
+    reason: String,
+    goal_error: f64,
+) -> Result<()> {
+    publisher.publish(MotionStatus {
+        header: Header { stamp, frame_id: String::new() },
+        command_id,
+        state,
+        reason,
+        goal_error,
+    })
+}

@@ -1,0 +1,53 @@
+//! `ds_controller`: the reactive DS controller as a ROS 2 node.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use cowork_robot::RobotModel;
+use cowork_ros::{NodeConfig, RosNode};
+use ds_controller::{Params, RunOptions};
+
+/// Reactive DS controller (thesis Sec. 5.1.1, 5.1.3) at 1 kHz: goal adaptation, velocity
+/// scaling from `/human/state`, DS modulation and null-space avoidance from `/fded/distances`,
+/// watchdog on stale inputs. Runs `/motion/command`, publishes `/lwr/joint_velocity_command`
+/// and `/motion/status`.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// Robot description (URDF with per-link meshes).
+    #[arg(long, default_value = "config/robot/lwr4plus.urdf")]
+    urdf: PathBuf,
+    /// ROS 2 parameter file with a `ds_controller: ros__parameters:` block.
+    #[arg(long, default_value = "config/ds_controller.yaml")]
+    params: PathBuf,
+    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
+    #[arg(long)]
+    use_sim_time: bool,
+    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
+    #[arg(long)]
+    duration: Option<f64>,
+}
+
+fn main() -> Result<()> {
+    cowork_ros::init_logging();
+    let args = Args::parse();
+    let mut params: Params = cowork_ros::params::load(&args.params, "ds_controller")?;
+    params.use_sim_time |= args.use_sim_time;
+    params
+        .validate(&args.params.display().to_string())
+        .with_context(|| format!("invalid parameters in {}", args.params.display()))?;
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        anyhow::bail!("--duration {d}: must be a positive number of seconds");
+    }
+    let model = RobotModel::from_urdf_file(&args.urdf)
+        .with_context(|| format!("cannot load robot description {}", args.urdf.display()))?;
+    cowork_ros::shutdown::install();
+    let node = RosNode::new(
+        "ds_controller",
+        &NodeConfig { use_sim_time: params.use_sim_time, ..NodeConfig::default() },
+    )?;
+    ds_controller::run(node, model, &params, &RunOptions { duration_s: args.duration, stop: None })
+}
