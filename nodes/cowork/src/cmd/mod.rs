@@ -1,6 +1,7 @@
 //! One module per top-level subcommand.
 
 pub mod bag;
+pub mod bag_synth;
 pub mod bench_lasa;
 pub mod learn;
 pub mod robot;
