@@ -120,13 +120,6 @@ fn shade(c: RGBColor, u: f64) -> RGBColor {
 
 fn main() -> anyhow::Result<()> {
     let args = Args::parse();
-    let font = ["/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf", "/usr/share/fonts/dejavu/DejaVuSans.ttf"]
-        .iter()
-        .find_map(|p| std::fs::read(p).ok());
-    let have_font = match font {
-        Some(bytes) => plotters::style::register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into_boxed_slice())).is_ok(),
-        None => false,
-    };
     if let Some(dir) = args.output.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
@@ -138,8 +131,9 @@ fn main() -> anyhow::Result<()> {
         let cells = root.split_evenly((rows.len(), 2));
         for (i, row) in rows.iter().enumerate() {
             let ps = poses(row);
-            draw_side(&cells[2 * i], row, &ps, have_font)?;
-            draw_top(&cells[2 * i + 1], row, &ps, have_font)?;
+            draw_side(&cells[2 * i], row, &ps)?;
+            println!("row {}: {} (left: side view, right: top view)", i + 1, row.title);
+            draw_top(&cells[2 * i + 1], row, &ps)?;
         }
         root.present().with_context(|| format!("writing {}", args.output.display()))?;
     }
@@ -147,7 +141,7 @@ fn main() -> anyhow::Result<()> {
     Ok(())
 }
 
-fn draw_side(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, row: &Row, ps: &[SkeletonPose], font: bool) -> anyhow::Result<()> {
+fn draw_side(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, row: &Row, ps: &[SkeletonPose]) -> anyhow::Result<()> {
     let u = row.side_axis;
     let hs: Vec<f64> = ps.iter().flat_map(|p| p.segments.iter().map(move |s| s.position.coords.dot(&u))).collect();
     let (lo, hi) = hs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)));
@@ -156,13 +150,9 @@ fn draw_side(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, row:
     let floor = ps[0].floor_z;
     let mut b = ChartBuilder::on(area);
     b.margin(8);
-    if font {
-        b.caption(format!("{} — side view", row.title), ("sans-serif", 18)).x_label_area_size(28).y_label_area_size(40);
-    }
     let mut chart = b.build_cartesian_2d(mid - half..mid + half, floor - 0.05..floor + 2.05)?;
-    if font {
-        chart.configure_mesh().x_desc("along axis (m)").y_desc("z (m)").light_line_style(WHITE.mix(0.0)).draw()?;
-    }
+    // Grid every 0.5 m (no text: the plot has no font).
+    draw_grid(&mut chart, (mid - half, mid + half), (floor - 0.05, floor + 2.05))?;
     // Floor and table top (z = 0).
     chart.draw_series(LineSeries::new([(mid - half, floor), (mid + half, floor)], BLACK.stroke_width(2)))?;
     chart.draw_series(LineSeries::new([(mid - half, 0.0), (mid + half, 0.0)], RGBColor(150, 110, 60).stroke_width(1)))?;
@@ -181,16 +171,11 @@ fn draw_side(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, row:
     Ok(())
 }
 
-fn draw_top(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, row: &Row, ps: &[SkeletonPose], font: bool) -> anyhow::Result<()> {
+fn draw_top(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, row: &Row, ps: &[SkeletonPose]) -> anyhow::Result<()> {
     let mut b = ChartBuilder::on(area);
     b.margin(8);
-    if font {
-        b.caption(format!("{} — top view (base frame)", row.title), ("sans-serif", 18)).x_label_area_size(28).y_label_area_size(40);
-    }
     let mut chart = b.build_cartesian_2d(-1.6..2.3, -3.7..1.0)?;
-    if font {
-        chart.configure_mesh().x_desc("x (m)").y_desc("y (m)").light_line_style(WHITE.mix(0.0)).draw()?;
-    }
+    draw_grid(&mut chart, (-1.6, 2.3), (-3.7, 1.0))?;
     // Table outline, robot base, camera.
     let table = [(-0.25, -0.9), (1.15, -0.9), (1.15, 0.9), (-0.25, 0.9), (-0.25, -0.9)];
     chart.draw_series(LineSeries::new(table, RGBColor(150, 110, 60).stroke_width(2)))?;
@@ -216,6 +201,24 @@ fn draw_top(area: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>, row: 
             chart.draw_series(LineSeries::new([pr(p.position(a)), pr(p.position(b2))], shade(bone_colour(a, b2), t).stroke_width(2)))?;
         }
         chart.draw_series([Circle::new(pr(p.position(Segment::Head)), 5, shade(BLACK, t).stroke_width(1))])?;
+    }
+    Ok(())
+}
+
+type Chart<'a> = ChartContext<'a, BitMapBackend<'a>, Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>>;
+
+/// Light grey lines every 0.5 m.
+fn draw_grid(chart: &mut Chart<'_>, x: (f64, f64), y: (f64, f64)) -> anyhow::Result<()> {
+    let grey = RGBColor(225, 225, 225);
+    let mut v = (x.0 / 0.5).ceil() * 0.5;
+    while v <= x.1 {
+        chart.draw_series(LineSeries::new([(v, y.0), (v, y.1)], grey))?;
+        v += 0.5;
+    }
+    let mut v = (y.0 / 0.5).ceil() * 0.5;
+    while v <= y.1 {
+        chart.draw_series(LineSeries::new([(x.0, v), (x.1, v)], grey))?;
+        v += 0.5;
     }
     Ok(())
 }
