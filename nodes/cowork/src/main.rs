@@ -5,6 +5,10 @@ use clap::{Parser, Subcommand};
 
 mod cmd;
 
+/// Counts allocations per thread so `cowork bench control` can show the 1 kHz step allocates nothing.
+#[global_allocator]
+static ALLOCATOR: cowork_testkit::CountingAllocator = cowork_testkit::CountingAllocator;
+
 /// cowork — teach a robot arm structured tasks by showing them, and run them beside people.
 #[derive(Debug, Parser)]
 #[command(version, propagate_version = true)]
@@ -29,9 +33,14 @@ enum Command {
     /// Motion primitives: fit DMP / GMR / C-GMR / HMM from CSV demonstrations, roll them out.
     #[command(subcommand)]
     Learn(cmd::learn::LearnCommand),
-    /// MCAP bags (ROS 2 profile): info.
+    /// MCAP bags (ROS 2 profile): record, play, info, synth, bench.
     #[command(subcommand)]
     Bag(cmd::bag::BagCommand),
+    /// fDED robot–obstacle distances in depth space, frame by frame from a bag.
+    #[command(subcommand)]
+    Fded(cmd::fded::FdedCommand),
+    /// Simulated DS-controller experiments of the thesis (Fig. 5.3–5.7, Sec. 5.1.3); prints JSON.
+    Scenario(cmd::scenario::ScenarioArgs),
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -41,6 +50,10 @@ enum Command {
 enum BenchCommand {
     /// GMR vs C-GMR on the LASA handwriting set (data exported by tests/crosscheck/lasa_export.py).
     Lasa(cmd::bench_lasa::BenchLasaArgs),
+    /// fDED Tables 5.1/5.2 vs brute force and Flacco et al.
+    Fded(cmd::fded::BenchFdedArgs),
+    /// DS controller step time and allocations.
+    Control(cmd::bench_control::BenchControlArgs),
 }
 
 fn main() -> Result<()> {
@@ -53,6 +66,10 @@ fn main() -> Result<()> {
         Command::Supervisor(c) => cmd::supervisor::run(c),
         Command::Learn(c) => cmd::learn::run(c),
         Command::Bag(c) => cmd::bag::run(c),
+        Command::Fded(c) => cmd::fded::run(c),
+        Command::Scenario(a) => cmd::scenario::run(a),
         Command::Bench(BenchCommand::Lasa(a)) => cmd::bench_lasa::run(a),
+        Command::Bench(BenchCommand::Fded(a)) => cmd::fded::bench(a),
+        Command::Bench(BenchCommand::Control(a)) => cmd::bench_control::run(a),
     }
 }

@@ -2,9 +2,12 @@
 
 pub mod bag;
 pub mod bag_synth;
+pub mod bench_control;
 pub mod bench_lasa;
+pub mod fded;
 pub mod learn;
 pub mod robot;
 pub mod say;
+pub mod scenario;
 pub mod supervisor;
 pub mod topic;
