@@ -1,0 +1,58 @@
+//! `fded_distance`: fDED robot–obstacle distances (thesis Sec. 5.1.2) as a ROS 2 node.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use cowork_robot::RobotModel;
+use cowork_ros::{NodeConfig, RosNode};
+use fded_distance::{FdedNode, Params, RunOptions};
+
+/// fDED: per depth frame on `/camera/depth/image_raw`, the distance of every robot link to the
+/// closest obstacle, with points, normal and obstacle velocity, on `/fded/distances`.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// ROS 2 parameter file with a `fded_distance: ros__parameters:` block.
+    #[arg(long, default_value = "config/fded_distance.yaml")]
+    params: PathBuf,
+    /// Robot description (overrides `urdf` in the parameter file).
+    #[arg(long)]
+    urdf: Option<PathBuf>,
+    /// `auto`, `cpu` or `gpu` (overrides `backend` in the parameter file).
+    #[arg(long)]
+    backend: Option<String>,
+    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
+    #[arg(long)]
+    use_sim_time: bool,
+    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
+    #[arg(long)]
+    duration: Option<f64>,
+}
+
+fn main() -> Result<()> {
+    cowork_ros::init_logging();
+    let args = Args::parse();
+    let place = args.params.display().to_string();
+    let mut params: Params = cowork_ros::params::load(&args.params, "fded_distance")?;
+    params.use_sim_time |= args.use_sim_time;
+    if let Some(u) = &args.urdf {
+        params.urdf = u.display().to_string();
+    }
+    if let Some(b) = &args.backend {
+        params.backend = b.clone();
+    }
+    params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        anyhow::bail!("--duration {d}: must be a positive number of seconds");
+    }
+    let model = RobotModel::from_urdf_file(&params.urdf)
+        .with_context(|| format!("cannot load robot description {}", params.urdf))?;
+    let use_sim_time = params.use_sim_time;
+    let fded = FdedNode::new(model, params)?;
+    cowork_ros::shutdown::install();
+    let node = RosNode::new("fded_distance", &NodeConfig { use_sim_time, ..NodeConfig::default() })?;
+    fded_distance::run(node, fded, &RunOptions { duration_s: args.duration, stop: None })
+}
