@@ -14,7 +14,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
 echo "(a) freshly synthesised bags"
-for spec in "kinesthetic-pour 20" "static-scene 6" "stacking-human 8" "gestures 12"; do
+for spec in "kinesthetic-pour 20" "static-scene 6" "stacking-human 8" "gestures 24"; do
   read -r scenario duration <<< "$spec"
   start=$(date +%s%N)
   "$target/release/cowork" bag synth "$scenario" -o "$work/$scenario.mcap" --seed 3 --duration "$duration" > "$work/synth.log"
