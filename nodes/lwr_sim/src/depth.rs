@@ -1,5 +1,6 @@
-//! The simulated depth camera of `lwr_sim`: renders the scene camera's view of the table, the
-//! objects and the robot at the current joints, as `/camera/depth/image_raw` and
+//! The simulated depth camera of `lwr_sim`: renders the scene camera's view of the floor, the
+//! table, the objects, the robot at the current joints and the people seen on `/human/skeleton`
+//! (capsule bodies, see [`People`]), as `/camera/depth/image_raw` and
 //! `/camera/depth/camera_info`.
 //!
 //! Threading: the 1 kHz loop only copies a [`DepthSnapshot`] (stamp, joints, object poses: no
@@ -11,9 +12,11 @@
 use std::sync::{Arc, Condvar, Mutex};
 
 use anyhow::{Context, Result, bail};
-use cowork_depth::{DepthImage, DepthRenderer, Encoding, Intrinsics, KinectNoise};
+use cowork_depth::{Capsule, DepthImage, DepthRenderer, Encoding, Floor, Intrinsics, KinectNoise};
 use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::msg::Skeleton;
 use cowork_msgs::sensor_msgs::{CameraInfo, Image};
+use cowork_people::{BODY_CAPSULE_COUNT, SkeletonPose, body_capsules};
 use cowork_robot::JointVector;
 use cowork_sim::{Shape, Simulator};
 use nalgebra::Isometry3;
@@ -33,15 +36,44 @@ pub struct DepthConfig {
     pub noise_seed: u64,
     /// Rasterise on all cores (rayon) instead of the worker thread alone.
     pub parallel: bool,
+    /// Draw the floor (people stand on it).
+    pub floor: bool,
+    /// Height of the floor in the base frame, m (the robot stands on the table, z = 0 on its
+    /// top); the synthetic people's floor by default.
+    pub floor_height_m: f64,
+    /// A person whose last `/human/skeleton` message is older than this (s of simulated
+    /// time) is no longer drawn.
+    pub person_timeout_s: f64,
 }
 
 impl Default for DepthConfig {
     fn default() -> Self {
-        Self { enabled: true, encoding: "32FC1".into(), noise: true, noise_seed: 1, parallel: false }
+        Self {
+            enabled: true,
+            encoding: "32FC1".into(),
+            noise: true,
+            noise_seed: 1,
+            parallel: false,
+            floor: true,
+            floor_height_m: cowork_people::DEFAULT_FLOOR_Z,
+            person_timeout_s: 0.5,
+        }
     }
 }
 
 impl DepthConfig {
+    /// Rejects a bad encoding, a non-finite floor height and a timeout that is not > 0.
+    pub fn validate(&self, place: &str) -> Result<()> {
+        self.encoding(place)?;
+        if !self.floor_height_m.is_finite() {
+            bail!("{place}: `depth.floor_height_m` = {} must be finite (m)", self.floor_height_m);
+        }
+        if !(self.person_timeout_s.is_finite() && self.person_timeout_s > 0.0) {
+            bail!("{place}: `depth.person_timeout_s` = {} must be > 0 s", self.person_timeout_s);
+        }
+        Ok(())
+    }
+
     /// The encoding, checked.
     pub fn encoding(&self, place: &str) -> Result<Encoding> {
         match self.encoding.parse::<Encoding>() {
@@ -60,15 +92,88 @@ pub struct DepthSnapshot {
     pub q: JointVector,
     /// Object shapes and poses (base frame).
     pub objects: Vec<(Shape, Isometry3<f64>)>,
+    /// Capsule bodies of the people (base frame).
+    pub people: Vec<Capsule>,
 }
 
 impl DepthSnapshot {
-    /// Copies the simulator's current state (reusing the object buffer).
-    pub fn capture(&mut self, sim: &Simulator) {
+    /// Copies the simulator's current state and the people's bodies (reusing the buffers).
+    pub fn capture(&mut self, sim: &Simulator, people: &People) {
         self.stamp = Time::from_nanos(sim.time_ns());
         self.q = *sim.joint_positions();
         self.objects.clear();
         self.objects.extend(sim.objects().iter().map(|o| (o.shape, o.pose)));
+        self.people.clear();
+        self.people.extend(people.capsules());
+    }
+}
+
+/// The people the camera sees: the capsule body (see [`cowork_people::body_capsules`]) of the
+/// newest `/human/skeleton` message of each `person_id`, its body size measured from the
+/// message's arms, feet on the floor. A person not heard of for the timeout is dropped.
+#[derive(Debug, Clone)]
+pub struct People {
+    floor_z: f64,
+    timeout_ns: i64,
+    tracks: Vec<Track>,
+    rejected: u64,
+}
+
+#[derive(Debug, Clone)]
+struct Track {
+    person_id: u32,
+    /// Simulated time of the last message, ns.
+    seen_ns: i64,
+    body: [Capsule; BODY_CAPSULE_COUNT],
+}
+
+impl People {
+    /// Nobody yet; feet on the floor at `floor_z` (m, base frame); a person is dropped
+    /// `timeout_s` (simulated) after its last message.
+    pub fn new(floor_z: f64, timeout_s: f64) -> Self {
+        Self { floor_z, timeout_ns: (timeout_s * 1e9) as i64, tracks: Vec::new(), rejected: 0 }
+    }
+
+    /// Takes a skeleton received at simulated time `now_ns`. A malformed one (missing segment,
+    /// NaN, lengths that disagree) is an error naming the problem, and changes nothing.
+    pub fn update(&mut self, msg: &Skeleton, now_ns: i64) -> Result<()> {
+        let pose = match SkeletonPose::from_message_measured(msg, self.floor_z) {
+            Ok(p) => p,
+            Err(e) => {
+                self.rejected += 1;
+                bail!("/human/skeleton of person {}: {e}", msg.person_id);
+            }
+        };
+        let body = body_capsules(&pose);
+        match self.tracks.iter_mut().find(|t| t.person_id == msg.person_id) {
+            Some(t) => {
+                t.seen_ns = now_ns;
+                t.body = body;
+            }
+            None => self.tracks.push(Track { person_id: msg.person_id, seen_ns: now_ns, body }),
+        }
+        Ok(())
+    }
+
+    /// Drops the people not heard of for the timeout at simulated time `now_ns`.
+    pub fn expire(&mut self, now_ns: i64) {
+        let timeout = self.timeout_ns;
+        self.tracks.retain(|t| now_ns.saturating_sub(t.seen_ns) <= timeout);
+    }
+
+    /// Ids of the people drawn now.
+    pub fn ids(&self) -> impl Iterator<Item = u32> + '_ {
+        self.tracks.iter().map(|t| t.person_id)
+    }
+
+    /// Every capsule of every person, base frame.
+    pub fn capsules(&self) -> impl Iterator<Item = Capsule> + '_ {
+        self.tracks.iter().flat_map(|t| t.body.iter().copied())
+    }
+
+    /// Messages refused so far.
+    pub fn rejected(&self) -> u64 {
+        self.rejected
     }
 }
 
@@ -88,6 +193,9 @@ impl DepthCamera {
         let encoding = config.encoding("depth parameters")?;
         let mut renderer = DepthRenderer::new(sim.model(), sim.scene()).context("depth camera of the scene")?;
         renderer.set_parallel(config.parallel);
+        if config.floor {
+            renderer.set_floor(Some(Floor::at(config.floor_height_m)))?;
+        }
         if config.noise {
             renderer.set_noise(Some(KinectNoise::with_seed(config.noise_seed)))?;
         }
@@ -103,7 +211,7 @@ impl DepthCamera {
     /// Renders `snap` into `image` and fills `info` (both stamped with the snapshot's time, in
     /// the camera's optical frame), reusing their buffers.
     pub fn render(&mut self, snap: &DepthSnapshot, image: &mut Image, info: &mut CameraInfo) -> Result<()> {
-        self.renderer.render(&snap.q, &snap.objects, &[], &mut self.depth)?;
+        self.renderer.render(&snap.q, &snap.objects, &snap.people, &mut self.depth)?;
         self.depth.write_image_msg(snap.stamp, &self.frame_id, self.encoding, image);
         *info = self.intrinsics.to_camera_info(snap.stamp, &self.frame_id);
         Ok(())
@@ -139,8 +247,9 @@ impl Mailbox {
         Arc::new(Self::default())
     }
 
-    /// Posts the simulator's current state (replacing an untaken one). Called from the loop.
-    pub fn post(&self, sim: &Simulator) {
+    /// Posts the simulator's current state and the people (replacing an untaken snapshot).
+    /// Called from the loop.
+    pub fn post(&self, sim: &Simulator, people: &People) {
         let Ok(mut slot) = self.slot.lock() else { return };
         let mut snap = match slot.next.take() {
             Some(old) => {
@@ -149,7 +258,7 @@ impl Mailbox {
             }
             None => slot.spare.take().unwrap_or_default(),
         };
-        snap.capture(sim);
+        snap.capture(sim, people);
         slot.next = Some(snap);
         drop(slot);
         self.ready.notify_one();

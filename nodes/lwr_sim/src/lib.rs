@@ -7,6 +7,8 @@
 //! `/lwr/gripper_command` (std_msgs/String `open` / `close`), `/external_wrench`
 //! (geometry_msgs/WrenchStamped: expressed in `header.frame_id` and applied at its origin; an empty
 //! frame or the base link means a base-frame wrench at the tool point).
+//! `/human/skeleton` (cowork_msgs/Skeleton, base frame): each person is drawn in the depth image
+//! as a capsule body on the floor (see [`depth::People`]).
 //! Outputs: `/clock`, `/joint_states`, `/tf` (links and objects), `/tf_static` (camera),
 //! `/camera/depth/image_raw` (sensor_msgs/Image, `32FC1` m or `16UC1` mm) and
 //! `/camera/depth/camera_info` at the scene camera's `rate_hz` of simulated time (sensor-data
@@ -20,6 +22,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::{Quaternion, Transform, TransformStamped, Vector3, WrenchStamped};
+use cowork_msgs::msg::Skeleton;
 use cowork_msgs::rosgraph_msgs::Clock;
 use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use cowork_msgs::std_msgs::{Float64MultiArray, Header, String as RosString};
@@ -29,7 +32,7 @@ use cowork_sim::{SimParams, Simulator, Wrench};
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
-use crate::depth::{DepthCamera, DepthConfig, FrameClock, Mailbox};
+use crate::depth::{DepthCamera, DepthConfig, FrameClock, Mailbox, People};
 
 /// Publication rates of the node, Hz of simulated time.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -75,7 +78,7 @@ impl LwrSimConfig {
                 bail!("{place}: `{field}` = {v} must be in (0, {max}] Hz (one message per step at most)");
             }
         }
-        self.depth.encoding(place)?;
+        self.depth.validate(place)?;
         Ok(())
     }
 }
@@ -124,6 +127,7 @@ pub struct LwrSim {
     joint_state: JointState,
     camera_clock: FrameClock,
     config_depth: DepthConfig,
+    people: People,
 }
 
 impl LwrSim {
@@ -135,6 +139,7 @@ impl LwrSim {
         let n = names.len();
         let camera_clock = FrameClock::new(sim.scene().camera.rate_hz);
         Self {
+            people: People::new(config.depth.floor_height_m, config.depth.person_timeout_s),
             config_depth: config.depth.clone(),
             camera_clock,
             every_clock: every(config.publish.clock_rate_hz),
@@ -212,10 +217,27 @@ impl LwrSim {
         }
     }
 
+    /// Takes a person's skeleton for the depth camera; a malformed one is logged (the first
+    /// time per person) and ignored.
+    pub fn on_skeleton(&mut self, msg: &Skeleton) {
+        let before = self.people.rejected();
+        if let Err(e) = self.people.update(msg, self.sim.time_ns()) {
+            if before == 0 || before.is_power_of_two() {
+                tracing::warn!("{e} (ignored; {} refused so far)", before + 1);
+            }
+        }
+    }
+
+    /// The people the depth camera draws.
+    pub fn people(&self) -> &People {
+        &self.people
+    }
+
     /// Advances one step and says which topics are due.
     pub fn step(&mut self) -> Due {
         self.sim.step();
         self.steps += 1;
+        self.people.expire(self.sim.time_ns());
         Due {
             clock: self.steps % self.every_clock == 0,
             joint_states: self.steps % self.every_joint_states == 0,
@@ -314,6 +336,8 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
     let commands = node.subscription::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())?;
     let gripper = node.subscription::<RosString>("/lwr/gripper_command", &qos::reliable())?;
     let wrenches = node.subscription::<WrenchStamped>("/external_wrench", &qos::reliable())?;
+    // Best effort matches every writer (reliable bags, best-effort trackers).
+    let skeletons = node.subscription::<Skeleton>("/human/skeleton", &qos::best_effort_depth(20))?;
     let clock = node.publisher::<Clock>("/clock", &qos::clock())?;
     let joint_states = node.publisher::<JointState>("/joint_states", &qos::reliable())?;
     let tf = node.publisher::<TFMessage>("/tf", &qos::reliable_depth(100))?;
@@ -356,6 +380,9 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         while let Some(m) = wrenches.take() {
             lwr.on_wrench(&m);
         }
+        while let Some(m) = skeletons.take() {
+            lwr.on_skeleton(&m);
+        }
         let due = lwr.step();
         if due.clock {
             clock.publish(lwr.clock())?;
@@ -368,7 +395,7 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         }
         if due.depth {
             if let Some((mailbox, _)) = &camera {
-                mailbox.post(&lwr.sim);
+                mailbox.post(&lwr.sim, &lwr.people);
             }
         }
         let sim_s = lwr.sim.time_ns() as f64 * 1e-9;

@@ -49,13 +49,16 @@ fn wait<T: cowork_msgs::RosMessage>(sub: &Subscription<T>, timeout: Duration) ->
     None
 }
 
-/// The noise-free frame of the stacking scene at its start joints, rendered here.
+/// The noise-free frame of the stacking scene at its start joints, rendered here (with the
+/// node's default floor).
 fn local_render() -> (DepthRenderer, DepthImage, JointVector, Scene) {
     let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).unwrap();
     let scene = Scene::from_file(&root().join("config/scenes/stacking.yaml")).unwrap();
     let q = JointVector::from_iterator(scene.robot.initial_joints_deg.iter().map(|d| d.to_radians()));
     let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
     let mut r = DepthRenderer::new(&model, &scene).unwrap();
+    let depth = lwr_sim::depth::DepthConfig::default();
+    r.set_floor(Some(cowork_depth::Floor::at(depth.floor_height_m))).unwrap();
     let mut out = DepthImage::default();
     r.render(&q, &objects, &[], &mut out).unwrap();
     (r, out, q, scene)

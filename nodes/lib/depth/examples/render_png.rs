@@ -109,6 +109,7 @@ fn main() -> Result<()> {
         let code = |l: &Label| match *l {
             Label::None => 0.0,
             Label::Table => 1.0,
+            Label::Floor => 1.5,
             Label::Object(i) => 2.0 + f32::from(i) * 0.1,
             Label::Link(i) => 3.0 + f32::from(i) * 0.1,
             Label::Person(_) => 5.0,

@@ -7,7 +7,7 @@
 //! * [`Capsule`]: a body segment of a person (base frame), as the synthetic-people crate
 //!   produces them.
 //! * [`DepthRenderer`]: renders the table, scene objects, the robot's URDF link meshes at joint
-//!   positions `q` and people capsules, with a per-pixel [`Label`] (which link / object /
+//!   positions `q`, people capsules and optionally a [`Floor`], with a per-pixel [`Label`] (which link / object /
 //!   person), optionally with [`KinectNoise`].
 //!
 //! ```no_run
@@ -41,4 +41,4 @@ pub use error::{Error, Result};
 pub use image::{DepthImage, Encoding};
 pub use intrinsics::Intrinsics;
 pub use noise::KinectNoise;
-pub use render::{DepthRenderer, Label, Layers, ObjectView, Table};
+pub use render::{DepthRenderer, Floor, Label, Layers, ObjectView, Table};

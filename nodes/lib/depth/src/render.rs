@@ -24,6 +24,8 @@ pub enum Label {
     None,
     /// The table.
     Table,
+    /// The floor.
+    Floor,
     /// Scene object with this index in the `objects` slice given to
     /// [`DepthRenderer::render`].
     Object(u16),
@@ -86,6 +88,8 @@ impl<T: ObjectView> ObjectView for &T {
 pub struct Layers {
     /// The table.
     pub table: bool,
+    /// The floor (if the renderer has one, see [`DepthRenderer::set_floor`]).
+    pub floor: bool,
     /// Scene objects.
     pub objects: bool,
     /// The robot's link meshes.
@@ -96,14 +100,14 @@ pub struct Layers {
 
 impl Default for Layers {
     fn default() -> Self {
-        Self { table: true, objects: true, robot: true, people: true }
+        Self { table: true, floor: true, objects: true, robot: true, people: true }
     }
 }
 
 impl Layers {
     /// Only the robot (fDED's virtual depth).
     pub fn robot_only() -> Self {
-        Self { table: false, objects: false, robot: true, people: false }
+        Self { table: false, floor: false, objects: false, robot: true, people: false }
     }
 }
 
@@ -114,6 +118,27 @@ pub struct Table {
     pub size: [f64; 3],
     /// Base frame ← table centre.
     pub pose: Isometry3<f64>,
+}
+
+/// A horizontal floor: the square `|x|, |y| ≤ half_size` (m, base frame) of the plane
+/// `z = height`, seen from above (from below it is culled).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Floor {
+    /// Height of the floor in the base frame, m (the robot stands on a table: negative).
+    pub height: f64,
+    /// Half the side of the square drawn, m.
+    pub half_size: f64,
+}
+
+impl Floor {
+    /// Half side of the floor square by default (m): a room around the robot, beyond the
+    /// camera's range.
+    pub const DEFAULT_HALF_SIZE: f64 = 6.0;
+
+    /// A floor at `height` (m, base frame) of the default size.
+    pub fn at(height: f64) -> Self {
+        Self { height, half_size: Self::DEFAULT_HALF_SIZE }
+    }
 }
 
 /// One robot link's mesh as the renderer keeps it.
@@ -147,6 +172,7 @@ pub struct DepthRenderer {
     /// Optical ← base.
     camera_from_base: Isometry3<f64>,
     table: Option<Table>,
+    floor: Option<Floor>,
     links: Vec<LinkMesh>,
     layers: Layers,
     parallel: bool,
@@ -207,6 +233,7 @@ impl DepthRenderer {
             camera_pose,
             camera_from_base: camera_pose.inverse(),
             table: None,
+            floor: None,
             links,
             layers: Layers::default(),
             parallel: true,
@@ -233,6 +260,26 @@ impl DepthRenderer {
         }
         self.table = table;
         Ok(())
+    }
+
+    /// Sets or removes the floor (none by default). People stand on it, so a renderer that
+    /// draws people should have one at their floor height.
+    pub fn set_floor(&mut self, floor: Option<Floor>) -> Result<()> {
+        if let Some(f) = &floor {
+            if !f.height.is_finite() {
+                return Err(Error::bad_value("floor.height", f.height, "must be finite (m)"));
+            }
+            if !(f.half_size.is_finite() && f.half_size > 0.0) {
+                return Err(Error::bad_value("floor.half_size", f.half_size, "must be finite and > 0 m"));
+            }
+        }
+        self.floor = floor;
+        Ok(())
+    }
+
+    /// The floor, if any.
+    pub fn floor(&self) -> Option<&Floor> {
+        self.floor.as_ref()
     }
 
     /// Moves the camera (base ← optical frame).
@@ -376,6 +423,15 @@ impl DepthRenderer {
             if let Some(t) = self.table {
                 push_box(&mut self.list, &k, &(cam * t.pose), t.size, Label::Table);
             }
+        }
+        if self.layers.floor
+            && let Some(f) = self.floor
+        {
+            let h = f.half_size;
+            let c = [(-h, -h), (h, -h), (h, h), (-h, h)].map(|(x, y)| cam * Point3::new(x, y, f.height));
+            // Counter-clockwise seen from above: culled from below.
+            self.list.triangle(&k, [c[0], c[1], c[2]], true, Label::Floor);
+            self.list.triangle(&k, [c[0], c[2], c[3]], true, Label::Floor);
         }
         if self.layers.objects {
             for (i, o) in objects.iter().enumerate() {

@@ -383,3 +383,48 @@ fn parallel_and_sequential_give_identical_frames() {
     }
 }
 
+
+#[test]
+fn floor_is_a_plane_seen_from_above_only() {
+    let k = Intrinsics::kinect();
+    // Camera 2 m above the base origin looking straight down: optical z = −base z,
+    // x right = base x, y down = base −y.
+    let down = Isometry3::from_parts(
+        Translation3::new(0.0, 0.0, 2.0),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI),
+    );
+    let mut r = DepthRenderer::with_camera(&common::model(), k, down).unwrap();
+    r.set_layers(Layers { robot: false, ..Layers::default() });
+    let mut out = DepthImage::default();
+    r.render(&JointVector::zeros(), &NO_OBJECTS, &[], &mut out).unwrap();
+    assert_eq!(out.valid_count(), 0, "no floor unless one is set");
+
+    r.set_floor(Some(cowork_depth::Floor::at(-0.5))).unwrap();
+    r.render(&JointVector::zeros(), &NO_OBJECTS, &[], &mut out).unwrap();
+    // A plane parallel to the image plane at 2.5 m: every pixel at optical z = 2.5 m.
+    assert_eq!(out.valid_count(), 640 * 480);
+    for (x, y) in [(0, 0), (320, 240), (639, 479)] {
+        let d = f64::from(out.get(x, y).unwrap());
+        assert!((d - 2.5).abs() < 1e-5, "pixel ({x}, {y}): {d}");
+        assert_eq!(r.labels()[(y * 640 + x) as usize], Label::Floor);
+    }
+    // A person on the floor hides it.
+    let person = [Capsule::new(Point3::new(0.0, 0.0, -0.5), Point3::new(0.0, 0.0, 1.0), 0.2)];
+    r.render(&JointVector::zeros(), &NO_OBJECTS, &person, &mut out).unwrap();
+    assert!((f64::from(out.get(320, 240).unwrap()) - 0.8).abs() < 1e-5);
+    assert_eq!(r.labels()[240 * 640 + 320], Label::Person(0));
+
+    // From below the floor is culled; the layer switch hides it too.
+    r.set_floor(Some(cowork_depth::Floor::at(2.5))).unwrap();
+    r.render(&JointVector::zeros(), &NO_OBJECTS, &[], &mut out).unwrap();
+    assert_eq!(out.valid_count(), 0, "floor above the camera is seen from below");
+    r.set_floor(Some(cowork_depth::Floor::at(-0.5))).unwrap();
+    r.set_layers(Layers { robot: false, floor: false, ..Layers::default() });
+    r.render(&JointVector::zeros(), &NO_OBJECTS, &[], &mut out).unwrap();
+    assert_eq!(out.valid_count(), 0);
+
+    for bad in [cowork_depth::Floor { height: f64::NAN, half_size: 1.0 }, cowork_depth::Floor { height: 0.0, half_size: 0.0 }] {
+        let e = r.set_floor(Some(bad)).unwrap_err().to_string();
+        assert!(e.contains("floor."), "{e}");
+    }
+}

@@ -275,6 +275,36 @@ impl SkeletonPose {
     }
 }
 
+impl SkeletonPose {
+    /// The body size that fits the arms of this pose: the standing height whose upper-arm and
+    /// forearm lengths (0.186 H and 0.146 H, see [`BodySize::lengths`]) add up to the mean
+    /// shoulder–elbow–wrist path of the two arms, clamped to
+    /// [[`BodySize::MIN_HEIGHT`], [`BodySize::MAX_HEIGHT`]]. Arm segments are rigid in every
+    /// motion, so a moving person measures the same; sensor noise of a few mm moves the height
+    /// by about 1 %.
+    pub fn measured_body(&self) -> BodySize {
+        let unit = BodySize { height: 1.0 }.lengths();
+        let path: f64 = [Side::Right, Side::Left]
+            .into_iter()
+            .map(|side| {
+                let [sh, el, wr, _] = Segment::arm(side);
+                (self.position(el) - self.position(sh)).norm() + (self.position(wr) - self.position(el)).norm()
+            })
+            .sum();
+        let height = path / (2.0 * (unit.upper_arm + unit.forearm));
+        let height = if height.is_finite() { height } else { BodySize::default().height };
+        BodySize { height: height.clamp(BodySize::MIN_HEIGHT, BodySize::MAX_HEIGHT) }
+    }
+
+    /// Like [`Self::from_message`] for a receiver that does not know the person: the body size
+    /// (which places the feet and sizes the capsule body) is [measured](Self::measured_body)
+    /// from the message's arms.
+    pub fn from_message_measured(msg: &Skeleton, floor_z: f64) -> Result<Self> {
+        let body = Self::from_message(msg, BodySize::default(), floor_z)?.measured_body();
+        Self::from_message(msg, body, floor_z)
+    }
+}
+
 /// Unit horizontal projection of a frame's x axis (the facing direction); +x if it is vertical.
 pub(crate) fn horizontal_forward(q: &UnitQuaternion<f64>) -> Vector3<f64> {
     let x = q * Vector3::x();

@@ -413,3 +413,20 @@ fn bad_input_is_rejected_with_a_named_error() {
     assert!(e.to_string().contains("head"));
     let _ = UnitQuaternion::<f64>::identity();
 }
+
+#[test]
+fn body_size_is_measured_from_the_arms_of_a_message() {
+    for body in BodySize::presets() {
+        let t = timeline(with_all_gestures(body, 5));
+        // Noisy Xsens messages through every gesture: the measured height stays within 2 %.
+        for msg in Sampler::new(&t, SensorConfig::xsens(), 9).expect("sampler").step_by(37) {
+            let pose = SkeletonPose::from_message_measured(&msg, -0.75).expect("from_message_measured");
+            let err = (pose.body.height - body.height).abs() / body.height;
+            assert!(err < 0.02, "{} m measured as {} m", body.height, pose.body.height);
+            assert!(pose.feet.iter().all(|f| (f.ankle.z - (-0.75 + pose.body.lengths().ankle_height)).abs() < 1e-12));
+            let capsules = body_capsules(&pose);
+            assert_eq!(capsules.len(), BODY_CAPSULE_COUNT);
+            assert!(capsules.iter().all(|c| c.validate().is_ok()));
+        }
+    }
+}
