@@ -322,7 +322,7 @@ pub fn evaluate_flacco(
         fl.distances(&mut f, &frame, &mut per_link)?;
         for _ in 0..reps {
             let t0 = Instant::now();
-            f.prepare(&frame)?;
+            f.classify_full(&frame)?;
             let t1 = Instant::now();
             fl.distances_prepared(&f, &frame, &mut per_link);
             let t2 = Instant::now();

@@ -1,66 +1,66 @@
-//! Flat buffers shared by the pipeline's stages (and by the GPU path, which mirrors them).
+//! Flat buffers shared by the pipeline's stages (and by the GPU path, which consumes the same
+//! host-side lattices).
 //!
 //! Every buffer is a `Vec` of plain `f32`/`u32`/`u8` values or `[f32; 4]` points — all
-//! `bytemuck::Pod` — sized once in [`Buffers::new`] for the worst case of the image size and
-//! parameters, so that a frame never allocates. Pixel index `i = v · width + u` (row-major,
-//! `u` the column, `v` the row, both from the top-left corner). Points are in the **camera
-//! optical frame** (x right, y down, z forward; m) until the pipeline's last step moves the
-//! per-link results to the robot base frame.
+//! `bytemuck::Pod` — sized in [`Buffers::new`] for the image size, the robot point set and the
+//! parameters, so that a frame never allocates. Pixel index `i = v · width + u` (row-major, `u`
+//! the column, `v` the row, both from the top-left corner). Points are in the **camera optical
+//! frame** (x right, y down, z forward; m) until the pipeline's last step moves the per-link
+//! results to the robot base frame.
 //!
-//! Stage order and what each writes:
-//! 1. [`virtual_depth`](Buffers::virtual_depth), [`labels`](Buffers::labels): the robot's
-//!    triangles rasterised with a z-buffer (eq. 5.14 per vertex); 0 m / [`NO_LINK`] where no
-//!    robot.
-//! 2. [`filtered`](Buffers::filtered): the real depth with the robot (|d − d_r| ≤ δ), the
-//!    table, invalid (0, NaN, out of range) and background pixels set to 0.
-//! 3. [`robot_lattice`](Buffers::robot_lattice) + [`robot_lattice_pixel`](Buffers::robot_lattice_pixel):
-//!    per T_s × T_s tile and link, the robot pixel closest to the tile centre.
-//! 4. object lattice ([`obj_ray_x`](Buffers::obj_ray_x), [`obj_ray_y`](Buffers::obj_ray_y),
-//!    [`obj_depth`](Buffers::obj_depth), [`obj_pixel`](Buffers::obj_pixel); structure of
-//!    arrays so the distance loop vectorises): every S_x-th column of every S_y-th row of
-//!    `filtered` that holds an obstacle.
-//! 5. [`link_best`](Buffers::link_best): per link, the closest (robot lattice, object lattice)
-//!    pair under eq. 5.15–5.17;
-//! 6. refinement: the same minimum over every robot pixel of the winning tile of that link
-//!    (and, with `refine_obstacle`, over the real depth around the winning object point);
-//! 7. normals by a weighted plane fit around the closest object pixel.
+//! Work per frame is proportional to the robot points and the lattice samples, never to the
+//! image's pixels (thesis Sec. 5.1.2: only lattice points enter the distance computation):
+//! 1. [`cam_points`](Buffers::cam_points): the robot point set (mesh vertices, densified) in
+//!    the camera frame with its link, [`point_uv`](Buffers::point_uv) its projection (eq. 5.14).
+//! 2. [`lattice_robot`](Buffers::lattice_robot): robot removal evaluated at the object lattice
+//!    samples only (the link triangles rasterised at those samples, |d − d_r| ≤ δ);
+//! 3. robot lattice: the points grouped per (tile, link) slot
+//!    ([`slot_points`](Buffers::slot_points)), and per slot the point closest to the tile
+//!    centre ([`robot_lattice`](Buffers::robot_lattice));
+//! 4. object lattice (structure of arrays so the distance loop vectorises): every S_x-th
+//!    column of every S_y-th row that holds an obstacle;
+//! 5. [`link_best`](Buffers::link_best): per link, the closest (robot, object) pair under eq.
+//!    5.15–5.17; 6. refinement over the winning slot's points (and the obstacle window);
+//! 7. normals from a window of pixels classified on demand ([`window`](Buffers::window)).
 
 use bytemuck::{Pod, Zeroable};
 
-/// Label of a pixel that no robot link covers.
+/// Label of a pixel that no robot link covers (full-resolution virtual depth, tests and
+/// benchmark only).
 pub const NO_LINK: u8 = u8::MAX;
 
-/// A robot lattice point: `[x, y, z, link]` — camera-frame position (m; z = d_r, the virtual
-/// depth) and the link index as an exact small `f32`.
+/// A robot point: `[x, y, z, link]` — camera-frame position (m; z = d_r) and the link index as
+/// an exact small `f32`.
 pub type RobotPoint = [f32; 4];
 
-/// Best pair found for one link: squared distance (m²), robot and object pixel indices, and
-/// the tile of the robot point. `dist2 = f32::INFINITY` and indices `u32::MAX` when none.
+/// Best pair found for one link: squared distance (m²), robot point and object pixel, and the
+/// robot lattice entry whose slot holds the robot point. `dist2 = f32::INFINITY` and indices
+/// `u32::MAX` when none.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct LinkBest {
     /// Squared depth-space distance (eq. 5.15 squared), m².
     pub dist2: f32,
-    /// Pixel index of the robot point (in the virtual depth).
-    pub robot_pixel: u32,
-    /// Pixel index of the object point (in the filtered depth).
+    /// Index of the robot point in the robot point set ([`Buffers::cam_points`]).
+    pub robot_point: u32,
+    /// Pixel index of the object point.
     pub object_pixel: u32,
-    /// Tile index (`ty · tiles_x + tx`) of the robot point.
-    pub tile: u32,
+    /// Index of the robot lattice entry ([`Buffers::robot_lattice`]) of the robot point's slot.
+    pub lattice: u32,
 }
 
 impl LinkBest {
     /// No pair yet.
     pub const NONE: LinkBest = LinkBest {
         dist2: f32::INFINITY,
-        robot_pixel: u32::MAX,
+        robot_point: u32::MAX,
         object_pixel: u32::MAX,
-        tile: u32::MAX,
+        lattice: u32::MAX,
     };
 
     /// `true` once a pair has been found.
     pub fn is_some(&self) -> bool {
-        self.robot_pixel != u32::MAX
+        self.robot_point != u32::MAX
     }
 
     /// The better (smaller distance) of two; ties keep `self`.
@@ -70,7 +70,7 @@ impl LinkBest {
     }
 }
 
-/// Integer bounding box of the robot's pixels, inclusive; empty when `u0 > u1`.
+/// Integer bounding box of pixels, inclusive; empty when `u0 > u1`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PixelBox {
     /// First column.
@@ -110,70 +110,129 @@ pub struct Buffers {
     pub ray_x: Vec<f32>,
     /// `(v − c_y) / f_y` per row.
     pub ray_y: Vec<f32>,
-    /// Robot mesh vertices in the camera frame, `[x, y, z, link]`, this frame.
+    /// Robot mesh vertices in the camera frame, `[x, y, z, link]`, this frame (triangle corners
+    /// for robot removal).
     pub cam_vertices: Vec<RobotPoint>,
-    /// Virtual depth d_r per pixel (z in the camera frame, m; 0 = no robot).
-    pub virtual_depth: Vec<f32>,
-    /// Link index per pixel of the virtual depth ([`NO_LINK`] where none).
-    pub labels: Vec<u8>,
-    /// Bounding box of the robot's pixels this frame.
-    pub robot_box: PixelBox,
-    /// Real depth with everything that is not an obstacle set to 0, m.
-    pub filtered: Vec<f32>,
-    /// Per tile and link: `(squared pixel distance to the tile centre · 4, pixel)`;
-    /// `u32::MAX` where the tile has no pixel of that link. Reset after each use.
-    pub tile_best: Vec<[u32; 2]>,
-    /// Robot lattice points (stage 3).
+    /// Projected mesh vertices `[u, v]`, px (NaN behind the near plane).
+    pub vertex_uv: Vec<[f32; 2]>,
+    /// Per chunk of [`TRI_CHUNK`](crate::raster::TRI_CHUNK) triangles: the pixel box
+    /// `[u0, v0, u1, v1]` of its triangles (grown by the removal margin; empty when `u0 > u1`).
+    pub chunk_box: Vec<[f32; 4]>,
+    /// The robot point set in the camera frame, `[x, y, z, link]`, this frame.
+    pub cam_points: Vec<RobotPoint>,
+    /// Projection `[u, v]` of each robot point, px (NaN when outside the image or behind the
+    /// near plane: such points are not in the depth space).
+    pub point_uv: Vec<[f32; 2]>,
+    /// Per (tile, link) slot: number of robot points this frame (reset after use).
+    pub slot_count: Vec<u32>,
+    /// Per slot: start of its points in [`slot_points`](Self::slot_points) this frame.
+    pub slot_start: Vec<u32>,
+    /// Slots holding points this frame, ascending.
+    pub active_slots: Vec<u32>,
+    /// Slot of each robot point (`u32::MAX` when not in the image).
+    pub point_slot: Vec<u32>,
+    /// Robot point indices grouped by slot (ascending slot, then ascending index).
+    pub slot_points: Vec<u32>,
+    /// Robot lattice points (stage 3): per slot the point closest to the tile centre.
     pub robot_lattice: Vec<RobotPoint>,
-    /// Pixel index of each robot lattice point.
-    pub robot_lattice_pixel: Vec<u32>,
+    /// Per robot lattice point: `[point index, slot, first, count]` — its robot point, its slot
+    /// and the slot's points in [`slot_points`](Self::slot_points).
+    pub robot_lattice_info: Vec<[u32; 4]>,
+    /// Object lattice grid size: samples per row.
+    pub lattice_nx: u32,
+    /// Object lattice grid size: rows.
+    pub lattice_ny: u32,
+    /// Per object lattice sample: 1 where robot removal took it (|d − d_r| ≤ δ).
+    pub lattice_robot: Vec<u8>,
     /// Object lattice: camera ray x of each point, `(u − c_x)/f_x`.
     pub obj_ray_x: Vec<f32>,
     /// Object lattice: camera ray y, `(v − c_y)/f_y`.
     pub obj_ray_y: Vec<f32>,
     /// Object lattice: measured depth d_o, m.
     pub obj_depth: Vec<f32>,
+    /// Object lattice: the largest depth its gray area may take (the table bounds it), m.
+    pub obj_cap: Vec<f32>,
     /// Object lattice: pixel index.
     pub obj_pixel: Vec<u32>,
     /// Per link: the best pair after stages 5 and 6.
     pub link_best: Vec<LinkBest>,
     /// Per worker thread: per-link partial minima (merged into `link_best`).
     pub partial_best: Vec<Vec<LinkBest>>,
+    /// A window of classified pixels (obstacle depth or 0), row-major, for the obstacle-side
+    /// refinement and the normal fit.
+    pub window: Vec<f32>,
+    /// Robot removal flags of the window's pixels.
+    pub window_robot: Vec<u8>,
+    /// Full-resolution virtual depth d_r (m, 0 = no robot), written by
+    /// [`Fded::prepare`](crate::Fded::prepare) only (baselines, tests), not per frame.
+    pub virtual_depth: Vec<f32>,
+    /// Link index per pixel of the full-resolution virtual depth ([`NO_LINK`] where none).
+    pub labels: Vec<u8>,
+    /// Bounding box of the robot's pixels in the full-resolution virtual depth.
+    pub robot_box: PixelBox,
+    /// Full-resolution filtered depth (obstacle depth or 0), written by
+    /// [`Fded::prepare`](crate::Fded::prepare) only.
+    pub filtered: Vec<f32>,
 }
 
 impl Buffers {
-    /// Buffers for a `width × height` image, `links` robot links, `vertices` mesh vertices and
-    /// `threads` workers, for tile sizes ≥ `min_tile` and any object step.
+    /// Buffers for a `width × height` image, `links` robot links, `vertices` mesh vertices,
+    /// `triangles` mesh triangles, `points` robot points and `threads` workers, for tile size
+    /// `tile`, object steps `step` and a window of up to `window` pixels.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         width: u32,
         height: u32,
         links: usize,
         vertices: usize,
+        triangles: usize,
+        points: usize,
         threads: usize,
-        min_tile: u32,
+        tile: u32,
+        step: (u32, u32),
+        window: usize,
     ) -> Self {
         let n = width as usize * height as usize;
-        let t = min_tile.max(1);
+        let t = tile.max(1);
         let tiles = width.div_ceil(t) as usize * height.div_ceil(t) as usize;
+        let slots = tiles * links;
+        let nx = width.div_ceil(step.0.max(1));
+        let ny = height.div_ceil(step.1.max(1));
+        let samples = nx as usize * ny as usize;
+        let chunks = triangles.div_ceil(crate::raster::TRI_CHUNK);
         Self {
             width,
             height,
             ray_x: vec![0.0; width as usize],
             ray_y: vec![0.0; height as usize],
             cam_vertices: vec![[0.0; 4]; vertices],
+            vertex_uv: vec![[0.0; 2]; vertices],
+            chunk_box: vec![[0.0; 4]; chunks],
+            cam_points: vec![[0.0; 4]; points],
+            point_uv: vec![[0.0; 2]; points],
+            slot_count: vec![0; slots],
+            slot_start: vec![0; slots],
+            active_slots: Vec::with_capacity(points.min(slots)),
+            point_slot: vec![u32::MAX; points],
+            slot_points: Vec::with_capacity(points),
+            robot_lattice: Vec::with_capacity(points.min(slots)),
+            robot_lattice_info: Vec::with_capacity(points.min(slots)),
+            lattice_nx: nx,
+            lattice_ny: ny,
+            lattice_robot: vec![0; samples],
+            obj_ray_x: Vec::with_capacity(samples),
+            obj_ray_y: Vec::with_capacity(samples),
+            obj_depth: Vec::with_capacity(samples),
+            obj_cap: Vec::with_capacity(samples),
+            obj_pixel: Vec::with_capacity(samples),
+            link_best: vec![LinkBest::NONE; links],
+            partial_best: vec![vec![LinkBest::NONE; links]; threads.max(1)],
+            window: vec![0.0; window],
+            window_robot: vec![0; window],
             virtual_depth: vec![0.0; n],
             labels: vec![NO_LINK; n],
             robot_box: PixelBox::EMPTY,
             filtered: vec![0.0; n],
-            tile_best: vec![[u32::MAX; 2]; tiles * links],
-            robot_lattice: Vec::with_capacity(tiles * links),
-            robot_lattice_pixel: Vec::with_capacity(tiles * links),
-            obj_ray_x: Vec::with_capacity(n),
-            obj_ray_y: Vec::with_capacity(n),
-            obj_depth: Vec::with_capacity(n),
-            obj_pixel: Vec::with_capacity(n),
-            link_best: vec![LinkBest::NONE; links],
-            partial_best: vec![vec![LinkBest::NONE; links]; threads.max(1)],
         }
     }
 

@@ -17,8 +17,8 @@ pub enum Backend {
 /// fDED parameters. Lengths in m, image quantities in px.
 ///
 /// Defaults: T_s = 32 px, S_x = S_y = 16 px (Table 5.1), δ = 5 cm robot removal, L = 1 % of
-/// the image's points for the normal fit. The table, depth range and velocity settings are
-/// ours (the thesis removes the table without saying how).
+/// the image's points for the normal fit. The table, depth range, removal margin, point
+/// spacing and velocity settings are ours (the thesis removes the table without saying how).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FdedParams {
@@ -31,6 +31,12 @@ pub struct FdedParams {
     /// Robot removal threshold δ: a pixel covered by the virtual depth d_r whose real depth d
     /// has |d − d_r| ≤ δ is the robot itself, m.
     pub robot_delta: f64,
+    /// Robot removal also takes pixels up to this far outside the projected link triangles
+    /// (joint state and depth image a few ms apart, calibration), px.
+    pub robot_margin: f64,
+    /// Largest distance between neighbouring robot points: the mesh vertices (the thesis's
+    /// robot points) plus points on longer triangle edges, m.
+    pub robot_point_spacing: f64,
     /// Depth readings below this are ignored (sensor minimum range), m.
     pub min_depth: f64,
     /// Depth readings beyond this are background, m.
@@ -68,6 +74,8 @@ impl Default for FdedParams {
             step_x: 16,
             step_y: 16,
             robot_delta: 0.05,
+            robot_margin: 2.0,
+            robot_point_spacing: 0.01,
             min_depth: 0.1,
             max_depth: 6.0,
             table_z: Some(0.0),
@@ -105,6 +113,7 @@ impl FdedParams {
         }
         for (name, v) in [
             ("robot_delta", self.robot_delta),
+            ("robot_margin", self.robot_margin),
             ("min_depth", self.min_depth),
             ("table_margin", self.table_margin),
             ("near_clip", self.near_clip),
@@ -112,6 +121,9 @@ impl FdedParams {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(bad(name, v, "must be finite and ≥ 0"));
             }
+        }
+        if !(self.robot_point_spacing.is_finite() && self.robot_point_spacing >= 1e-3) {
+            return Err(bad("robot_point_spacing", self.robot_point_spacing, "must be finite and ≥ 0.001 m"));
         }
         if !(self.max_depth.is_finite() && self.max_depth > self.min_depth) {
             return Err(bad("max_depth", self.max_depth, "must be finite and > min_depth"));

@@ -6,10 +6,14 @@ use crate::cam::Cam;
 use crate::error::{Error, Result};
 use crate::layout::{Buffers, LinkBest};
 use crate::params::{Backend, FdedParams};
-use crate::raster::{RobotMeshes, render_virtual_depth, transform_vertices};
+use crate::raster::{
+    Grid, Removal, RobotMeshes, RobotPointSet, mark_robot, render_virtual_depth, transform_points,
+    transform_vertices,
+};
 use crate::stages::{
-    FilterConsts, Objects, filter_rows, lattice_minimum, object_lattice, obstacle_normal,
-    refine_obstacle, refine_tile, robot_lattice,
+    Classify, Objects, TablePlane, classify_window, gray_depth, lattice_minimum, object_lattice,
+    obstacle_normal, refine_obstacle, refine_slot, remove_robot_at_lattice, robot_lattice,
+    window_around,
 };
 use cowork_depth::{DepthImage, Intrinsics};
 use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
@@ -66,9 +70,9 @@ impl LinkDistance {
 /// Wall-clock time of each stage of the last frame, µs.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StageTimes {
-    /// Forward kinematics + vertex transform + rasterised virtual depth.
+    /// Forward kinematics, mesh vertices and robot points to the camera frame, projection.
     pub virtual_depth_us: f64,
-    /// Robot removal, table and range filtering.
+    /// Robot removal at the object lattice samples.
     pub filter_us: f64,
     /// Robot and object lattices.
     pub lattices_us: f64,
@@ -137,6 +141,7 @@ struct Track {
 pub struct Fded {
     model: RobotModel,
     meshes: RobotMeshes,
+    points: RobotPointSet,
     intrinsics: Intrinsics,
     cam: Cam,
     params: FdedParams,
@@ -144,6 +149,19 @@ pub struct Fded {
     poses: LinkPoses,
     tracks: Vec<Track>,
     pool: Option<rayon::ThreadPool>,
+    classify: Classify,
+    removal: Removal,
+    /// Per link this frame: (object pixel, unoriented normal) already fitted.
+    normals: Vec<(u32, Option<Vector3<f32>>)>,
+    /// Full-resolution robot removal flags ([`prepare`](Fded::prepare) only).
+    pixel_robot: Vec<u8>,
+}
+
+/// Half sizes of the windows: obstacle-side refinement (±(S − 1)) and normal fit (L points).
+fn window_halves(params: &FdedParams, width: u32, height: u32) -> ((u32, u32), u32) {
+    let l = (params.normal_fraction * f64::from(width) * f64::from(height)).round().max(9.0);
+    let half = (l.sqrt() / 2.0).ceil() as u32;
+    ((params.step_x - 1, params.step_y - 1), half)
 }
 
 impl Fded {
@@ -152,13 +170,18 @@ impl Fded {
     /// Errors: bad parameters or intrinsics, a model without meshes or with more than
     /// [`MAX_LINKS`] links, [`Backend::Gpu`] (the GPU path lives in `gpu/`), or no threads.
     pub fn new(model: &RobotModel, intrinsics: &Intrinsics, params: FdedParams) -> Result<Self> {
-        params.validate()?;
         if params.backend != Backend::Cpu {
             return Err(Error::BackendUnavailable {
                 backend: params.backend,
                 reason: "this type is the CPU pipeline; build the GPU pipeline from the gpu module",
             });
         }
+        Self::host(model, intrinsics, params)
+    }
+
+    /// [`new`](Self::new) for any backend: the host-side stages the GPU path shares.
+    pub(crate) fn host(model: &RobotModel, intrinsics: &Intrinsics, params: FdedParams) -> Result<Self> {
+        params.validate()?;
         let cam = cam_of(intrinsics)?;
         let links = model.link_count();
         if links > MAX_LINKS {
@@ -173,20 +196,24 @@ impl Fded {
                 robot: model.name().to_owned(),
             });
         }
+        let points = RobotPointSet::from_meshes(&meshes, params.robot_point_spacing);
+        let (refine_half, normal_half) = window_halves(&params, cam.width, cam.height);
+        let side = |h: u32, n: u32| (2 * h + 1).min(n) as usize;
+        let window = (side(refine_half.0, cam.width) * side(refine_half.1, cam.height))
+            .max(side(normal_half, cam.width) * side(normal_half, cam.height));
         let mut buf = Buffers::new(
             cam.width,
             cam.height,
             links,
             meshes.vertices.len(),
+            meshes.triangles.len(),
+            points.len(),
             params.threads,
             params.tile_size,
+            (params.step_x, params.step_y),
+            window,
         );
-        for (u, r) in buf.ray_x.iter_mut().enumerate() {
-            *r = ((u as f64 - intrinsics.cx) / intrinsics.fx) as f32;
-        }
-        for (v, r) in buf.ray_y.iter_mut().enumerate() {
-            *r = ((v as f64 - intrinsics.cy) / intrinsics.fy) as f32;
-        }
+        crate::stages::rays(&cam, &mut buf.ray_x, &mut buf.ray_y, intrinsics);
         let pool = if params.threads > 1 {
             Some(
                 rayon::ThreadPoolBuilder::new()
@@ -201,9 +228,20 @@ impl Fded {
         } else {
             None
         };
+        let classify = Classify {
+            min_depth: params.min_depth as f32,
+            max_depth: params.max_depth as f32,
+            table: None,
+        };
+        let removal = Removal {
+            delta: params.robot_delta as f32,
+            margin: params.robot_margin as f32,
+        };
+        let n = cam.width as usize * cam.height as usize;
         Ok(Self {
             model: model.clone(),
             meshes,
+            points,
             intrinsics: *intrinsics,
             cam,
             params,
@@ -211,6 +249,10 @@ impl Fded {
             poses: LinkPoses::new(),
             tracks: vec![Track::default(); links],
             pool,
+            classify,
+            removal,
+            normals: Vec::with_capacity(links),
+            pixel_robot: vec![0; n],
         })
     }
 
@@ -240,10 +282,14 @@ impl Fded {
         &self.model
     }
 
-    /// The working buffers as the last frame left them (virtual depth, filtered depth,
-    /// lattices, per-link pairs).
+    /// The working buffers as the last frame left them (robot points, lattices, per-link
+    /// pairs; the full-resolution virtual and filtered depth after [`prepare`](Self::prepare)).
     pub fn buffers(&self) -> &Buffers {
         &self.buf
+    }
+
+    pub(crate) fn buffers_mut(&mut self) -> &mut Buffers {
+        &mut self.buf
     }
 
     /// The robot's flattened meshes.
@@ -251,34 +297,100 @@ impl Fded {
         &self.meshes
     }
 
+    /// The robot point set (link frames).
+    pub fn robot_points(&self) -> &RobotPointSet {
+        &self.points
+    }
+
+    /// The depth classification of the last frame (range, table plane).
+    pub fn classification(&self) -> &Classify {
+        &self.classify
+    }
+
     /// Forgets the previous frame (obstacle velocities restart at zero).
     pub fn reset_tracks(&mut self) {
         self.tracks.fill(Track::default());
     }
 
-    /// Runs stages 1–2 only: renders the virtual depth for `frame` and filters its depth into
-    /// [`Buffers::filtered`]. The baselines share this front end.
+    /// The full-resolution front end for the baselines and tests (not the per-frame path):
+    /// [`classify_full`](Self::classify_full), then the z-buffered virtual depth with link
+    /// labels ([`Buffers::virtual_depth`], [`Buffers::labels`], [`Buffers::robot_box`]).
     pub fn prepare(&mut self, frame: &Frame<'_>) -> Result<()> {
-        self.check(frame)?;
-        self.render(frame);
-        self.filter(frame);
+        self.classify_full(frame)?;
+        render_virtual_depth(&self.meshes, &self.cam, self.params.near_clip as f32, &mut self.buf);
         Ok(())
     }
 
-    /// Stage 1 (after [`check`](Self::check)): forward kinematics, vertices to the camera
-    /// frame, rasterised virtual depth.
-    fn render(&mut self, frame: &Frame<'_>) {
+    /// Stage 1 and every pixel of `frame` classified into [`Buffers::filtered`] (robot
+    /// removal, table, range) — the classification the lattice samples get, at full
+    /// resolution, for methods that read every pixel (brute force, Flacco et al.).
+    pub fn classify_full(&mut self, frame: &Frame<'_>) -> Result<()> {
+        self.check(frame)?;
+        self.transform(frame);
+        let grid = Grid {
+            u0: 0,
+            v0: 0,
+            su: 1,
+            sv: 1,
+            nx: self.cam.width,
+            ny: self.cam.height,
+        };
+        self.pixel_robot.fill(0);
+        let buf = &mut self.buf;
+        let depth = &frame.depth.data[..];
+        mark_robot(
+            &self.meshes,
+            &buf.cam_vertices,
+            &buf.vertex_uv,
+            0..self.meshes.triangles.len(),
+            &grid,
+            depth,
+            buf.width as usize,
+            &self.removal,
+            &mut self.pixel_robot,
+            Some(&mut buf.chunk_box),
+        );
+        let w = buf.width as usize;
+        for (row, ((out, d_row), flags)) in buf
+            .filtered
+            .chunks_exact_mut(w)
+            .zip(depth.chunks_exact(w))
+            .zip(self.pixel_robot.chunks_exact(w))
+            .enumerate()
+        {
+            let ry = buf.ray_y[row];
+            for (((f, &d), &robot), &rx) in out.iter_mut().zip(d_row).zip(flags).zip(&buf.ray_x) {
+                *f = if robot == 0 && self.classify.candidate(d, rx, ry) { d } else { 0.0 };
+            }
+        }
+        Ok(())
+    }
+
+    /// Stage 1 (after [`check`](Self::check)): forward kinematics, mesh vertices and robot
+    /// points to the camera frame and projected; the table plane of this camera pose.
+    fn transform(&mut self, frame: &Frame<'_>) {
         let cam_from_base = frame.camera_pose.inverse();
         let mut q = JointVector::zeros();
         if let Some(j) = frame.joints {
             q.copy_from_slice(j);
         }
         self.model.forward_kinematics(&q, &mut self.poses);
-        transform_vertices(&self.meshes, &self.poses, &cam_from_base, &mut self.buf);
-        render_virtual_depth(&self.meshes, &self.cam, self.params.near_clip as f32, &mut self.buf);
+        let near = self.params.near_clip as f32;
+        transform_vertices(&self.meshes, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
+        transform_points(&self.points, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
+        self.classify.table = self.params.table_z.map(|z| {
+            let m = frame.camera_pose.rotation.to_rotation_matrix();
+            let m = m.matrix();
+            TablePlane {
+                r2: [m[(2, 0)] as f32, m[(2, 1)] as f32, m[(2, 2)] as f32],
+                tz: frame.camera_pose.translation.vector.z as f32,
+                z_limit: (z + self.params.table_margin) as f32,
+                z_top: z as f32,
+            }
+        });
     }
 
-    fn check(&self, frame: &Frame<'_>) -> Result<()> {
+    pub(crate) fn check(&self, frame: &Frame<'_>) -> Result<()> {
         let d = frame.depth;
         if d.width != self.cam.width
             || d.height != self.cam.height
@@ -322,44 +434,6 @@ impl Fded {
         Ok(())
     }
 
-    fn filter(&mut self, frame: &Frame<'_>) {
-        let p = &self.params;
-        let table = p.table_z.map(|z| {
-            let r = frame.camera_pose.rotation.to_rotation_matrix();
-            let m = r.matrix();
-            [
-                m[(2, 0)] as f32,
-                m[(2, 1)] as f32,
-                m[(2, 2)] as f32,
-                frame.camera_pose.translation.vector.z as f32,
-                (z + p.table_margin) as f32,
-            ]
-        });
-        let k = FilterConsts {
-            delta: p.robot_delta as f32,
-            min_depth: p.min_depth as f32,
-            max_depth: p.max_depth as f32,
-            table,
-        };
-        let buf = &mut self.buf;
-        let depth = &frame.depth.data[..];
-        let (vd, rx, ry) = (&buf.virtual_depth[..], &buf.ray_x[..], &buf.ray_y[..]);
-        let w = buf.width as usize;
-        let h = buf.height as usize;
-        match &self.pool {
-            None => filter_rows(depth, vd, rx, ry, &k, 0, &mut buf.filtered),
-            Some(pool) => {
-                let parts = pool.current_num_threads();
-                let rows = h.div_ceil(parts);
-                pool.install(|| {
-                    split_run(&mut buf.filtered, rows * w, 0, &|start: usize, chunk: &mut [f32]| {
-                        filter_rows(depth, vd, rx, ry, &k, start / w, chunk);
-                    });
-                });
-            }
-        }
-    }
-
     /// Runs the whole pipeline on one frame and fills `out` (sized by
     /// [`new_output`](Self::new_output); other sizes are resized).
     ///
@@ -367,43 +441,51 @@ impl Fded {
     /// differs from the intrinsics, missing or wrong-length joint state, NaN joints or camera
     /// pose. Invalid depth pixels (0, NaN, out of range) are simply not obstacles.
     pub fn process(&mut self, frame: &Frame<'_>, out: &mut FdedOutput) -> Result<()> {
-        let t0 = Instant::now();
-        self.check(frame)?;
-        self.render(frame);
-        let t1 = Instant::now();
-        self.filter(frame);
-        let t1b = Instant::now();
-        let links = self.model.link_count();
-        let (tile, sx, sy) = (self.params.tile_size, self.params.step_x, self.params.step_y);
-        robot_lattice(&mut self.buf, tile, links);
-        object_lattice(&mut self.buf, sx, sy);
+        let mut times = self.front(frame)?;
         let t2 = Instant::now();
         self.minimum();
         let t3 = Instant::now();
-        self.refine();
+        self.refine_slots();
+        self.refine_obstacles(frame);
         let t4 = Instant::now();
         self.finish(frame, out);
         let t5 = Instant::now();
         let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
-        out.times = StageTimes {
+        times.minimum_us = us(t2, t3);
+        times.refine_us = us(t3, t4);
+        times.output_us = us(t4, t5);
+        times.total_us += us(t2, t5);
+        out.times = times;
+        Ok(())
+    }
+
+    /// Stages 1–4 (shared with the GPU path): checks, robot points, robot removal at the
+    /// lattice samples, robot and object lattices. Returns their times.
+    pub(crate) fn front(&mut self, frame: &Frame<'_>) -> Result<StageTimes> {
+        let t0 = Instant::now();
+        self.check(frame)?;
+        self.transform(frame);
+        let t1 = Instant::now();
+        let depth = &frame.depth.data[..];
+        let step = (self.params.step_x, self.params.step_y);
+        remove_robot_at_lattice(&self.meshes, depth, step, &self.removal, &mut self.buf);
+        let t1b = Instant::now();
+        robot_lattice(&mut self.buf, self.params.tile_size, self.model.link_count());
+        object_lattice(&mut self.buf, depth, step, &self.classify);
+        let t2 = Instant::now();
+        let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
+        Ok(StageTimes {
             virtual_depth_us: us(t0, t1),
             filter_us: us(t1, t1b),
             lattices_us: us(t1b, t2),
-            minimum_us: us(t2, t3),
-            refine_us: us(t3, t4),
-            output_us: us(t4, t5),
-            total_us: us(t0, t5),
-        };
-        Ok(())
+            total_us: us(t0, t2),
+            ..StageTimes::default()
+        })
     }
 
     /// Stage 5: per-link minimum over the robot × object lattices, split over the object
     /// lattice between the workers.
     fn minimum(&mut self) {
-        let tile = self.params.tile_size;
-        let tiles_x = self.cam.width.div_ceil(tile);
-        let w = self.cam.width;
-        let tile_of = move |p: u32| (p / w / tile) * tiles_x + (p % w) / tile;
         let buf = &mut self.buf;
         let n = buf.obj_depth.len();
         for part in buf.partial_best.iter_mut() {
@@ -411,27 +493,27 @@ impl Fded {
         }
         let parts = buf.partial_best.len();
         {
-            let (robot, robot_pixel) = (&buf.robot_lattice[..], &buf.robot_lattice_pixel[..]);
-            let (ox, oy, od, opix) = (&buf.obj_ray_x[..], &buf.obj_ray_y[..], &buf.obj_depth[..], &buf.obj_pixel[..]);
+            let (robot, info) = (&buf.robot_lattice[..], &buf.robot_lattice_info[..]);
+            let (ox, oy, od, oc, opix) =
+                (&buf.obj_ray_x[..], &buf.obj_ray_y[..], &buf.obj_depth[..], &buf.obj_cap[..], &buf.obj_pixel[..]);
             let work = |part: usize, best: &mut [LinkBest]| {
                 let r = part_range(n, parts, part);
                 let obj = Objects {
                     ray_x: &ox[r.clone()],
                     ray_y: &oy[r.clone()],
                     depth: &od[r.clone()],
+                    cap: &oc[r.clone()],
                 };
-                lattice_minimum(robot, robot_pixel, obj, &opix[r], tile_of, best);
+                lattice_minimum(robot, info, 0, obj, &opix[r], best);
             };
             run_parts(self.pool.as_ref(), &mut buf.partial_best, &work);
         }
         merge(&buf.partial_best, &mut buf.link_best);
     }
 
-    /// Stage 6: refinement over every robot pixel of each link's winning tile (split over the
-    /// object lattice between the workers), then the optional obstacle-side refinement.
-    fn refine(&mut self) {
-        let p = &self.params;
-        let cam = self.cam;
+    /// Stage 6: refinement over every robot point of each link's winning slot (split over the
+    /// object lattice between the workers).
+    fn refine_slots(&mut self) {
         let buf = &mut self.buf;
         let n = buf.obj_depth.len();
         let parts = buf.partial_best.len();
@@ -439,70 +521,99 @@ impl Fded {
             part.copy_from_slice(&buf.link_best);
         }
         {
-            let (vd, labels, rx, ry) = (&buf.virtual_depth[..], &buf.labels[..], &buf.ray_x[..], &buf.ray_y[..]);
-            let (ox, oy, od, opix) = (&buf.obj_ray_x[..], &buf.obj_ray_y[..], &buf.obj_depth[..], &buf.obj_pixel[..]);
+            let (points, slot_points, info) = (&buf.cam_points[..], &buf.slot_points[..], &buf.robot_lattice_info[..]);
+            let (ox, oy, od, oc, opix) =
+                (&buf.obj_ray_x[..], &buf.obj_ray_y[..], &buf.obj_depth[..], &buf.obj_cap[..], &buf.obj_pixel[..]);
             let link_best = &buf.link_best[..];
-            let tile_size = p.tile_size;
             let work = |part: usize, best: &mut [LinkBest]| {
                 let r = part_range(n, parts, part);
                 let obj = Objects {
                     ray_x: &ox[r.clone()],
                     ray_y: &oy[r.clone()],
                     depth: &od[r.clone()],
+                    cap: &oc[r.clone()],
                 };
                 for (l, lb) in link_best.iter().enumerate() {
                     if lb.is_some() {
-                        refine_tile(vd, labels, rx, ry, &cam, tile_size, lb.tile, l as u8, obj, &opix[r.clone()], &mut best[l]);
+                        let e = lb.lattice;
+                        refine_slot(points, slot_points, info[e as usize], e, obj, &opix[r.clone()], &mut best[l]);
                     }
                 }
             };
             run_parts(self.pool.as_ref(), &mut buf.partial_best, &work);
         }
         merge(&buf.partial_best, &mut buf.link_best);
-        if p.refine_obstacle {
-            for l in 0..buf.link_best.len() {
-                let mut b = buf.link_best[l];
-                refine_obstacle(buf, &cam, p.tile_size, (p.step_x, p.step_y), l as u8, &mut b);
-                buf.link_best[l] = b;
+    }
+
+    /// The optional obstacle-side refinement (`refine_obstacle`): per link, the obstacle pixels
+    /// within ±(S − 1) px of its object point, classified on demand.
+    pub(crate) fn refine_obstacles(&mut self, frame: &Frame<'_>) {
+        if !self.params.refine_obstacle || (self.params.step_x == 1 && self.params.step_y == 1) {
+            return;
+        }
+        let (half, _) = window_halves(&self.params, self.cam.width, self.cam.height);
+        let depth = &frame.depth.data[..];
+        for l in 0..self.buf.link_best.len() {
+            let mut b = self.buf.link_best[l];
+            if !b.is_some() {
+                continue;
             }
+            let win = window_around(b.object_pixel, half, self.cam.width, self.cam.height);
+            classify_window(&self.meshes, depth, &self.classify, &self.removal, win.0, win.1, win.2, win.3, &mut self.buf);
+            refine_obstacle(&self.buf, &self.classify, win, &mut b);
+            self.buf.link_best[l] = b;
         }
     }
 
     /// Stage 7 and the output: normals, velocities, base-frame points, global minimum.
-    fn finish(&mut self, frame: &Frame<'_>, out: &mut FdedOutput) {
+    pub(crate) fn finish(&mut self, frame: &Frame<'_>, out: &mut FdedOutput) {
         let links = self.model.link_count();
         if out.links.len() != links {
             out.links.clear();
             out.links.extend((0..links).map(LinkDistance::none));
         }
-        let buf = &self.buf;
-        let w = buf.width as usize;
-        let window = (self.params.normal_fraction * (buf.width as f64) * (buf.height as f64)).round() as usize;
+        let (_, half) = window_halves(&self.params, self.cam.width, self.cam.height);
         let base_from_cam = frame.camera_pose;
         let (alpha, vmax) = (self.params.velocity_smoothing, self.params.max_obstacle_speed);
+        let depth = &frame.depth.data[..];
+        let w = self.cam.width as usize;
         out.stamp = frame.stamp;
         out.closest = None;
+        self.normals.clear();
         let mut closest = f64::INFINITY;
         for l in 0..links {
-            let b = buf.link_best[l];
-            let track = &mut self.tracks[l];
+            let b = self.buf.link_best[l];
             if !b.is_some() {
                 out.links[l] = LinkDistance::none(l);
-                track.valid = false;
+                self.tracks[l].valid = false;
                 continue;
             }
-            let rp = b.robot_pixel as usize;
-            let dr = buf.virtual_depth[rp];
-            let r = Vector3::new(buf.ray_x[rp % w] * dr, buf.ray_y[rp / w] * dr, dr);
+            let rp = self.buf.cam_points[b.robot_point as usize];
+            let r = Vector3::new(rp[0], rp[1], rp[2]);
             let op = b.object_pixel as usize;
-            let d_o = buf.filtered[op].max(dr);
-            let o = Vector3::new(buf.ray_x[op % w] * d_o, buf.ray_y[op / w] * d_o, d_o);
-            let n_cam = obstacle_normal(buf, b.object_pixel, window.max(9), self.params.normal_sigma as f32, &r)
+            let (rx, ry) = (self.buf.ray_x[op % w], self.buf.ray_y[op / w]);
+            let od = depth[op];
+            let d_o = gray_depth(rp[2], od, self.classify.gray_cap(od, rx, ry));
+            let o = Vector3::new(rx * d_o, ry * d_o, d_o);
+            let cached = self.normals.iter().find(|(p, _)| *p == b.object_pixel).map(|&(_, n)| n);
+            let fitted = match cached {
+                Some(n) => n,
+                None => {
+                    let win = window_around(b.object_pixel, (half, half), self.cam.width, self.cam.height);
+                    classify_window(&self.meshes, depth, &self.classify, &self.removal, win.0, win.1, win.2, win.3, &mut self.buf);
+                    let n = obstacle_normal(&self.buf, win, b.object_pixel, self.params.normal_sigma as f32);
+                    self.normals.push((b.object_pixel, n));
+                    n
+                }
+            };
+            let n_cam = fitted
+                .map(|n| if n.dot(&(r - o)) < 0.0 { -n } else { n })
                 .or_else(|| (r - o).try_normalize(1e-9))
                 .unwrap_or_else(Vector3::zeros);
             let robot_point = base_from_cam * Point3::from(r.cast::<f64>());
             let obstacle_point = base_from_cam * Point3::from(o.cast::<f64>());
             let normal = base_from_cam.rotation * n_cam.cast::<f64>();
+            let track = &mut self.tracks[l];
             let dt = frame.stamp - track.stamp;
             let velocity = if track.valid && dt > 0.0 {
                 let raw = (obstacle_point - track.point) / dt;
@@ -536,8 +647,8 @@ impl Fded {
             }
         }
         out.counts = FrameCounts {
-            robot_lattice: buf.robot_lattice.len(),
-            object_lattice: buf.obj_depth.len(),
+            robot_lattice: self.buf.robot_lattice.len(),
+            object_lattice: self.buf.obj_depth.len(),
         };
     }
 }
@@ -604,16 +715,6 @@ pub(crate) fn run_parts(
             }
         }
     }
-}
-
-/// Splits `data` into chunks of `chunk` items and runs `f(offset, chunk)` on each in parallel.
-fn split_run(data: &mut [f32], chunk: usize, offset: usize, f: &(dyn Fn(usize, &mut [f32]) + Sync)) {
-    if data.len() <= chunk {
-        f(offset, data);
-        return;
-    }
-    let (a, b) = data.split_at_mut(chunk);
-    rayon::join(|| f(offset, a), || split_run(b, chunk, offset + chunk, f));
 }
 
 /// Per link, the best of the workers' partial results.

@@ -1,12 +1,19 @@
-//! Stage 1: the virtual depth — the robot's link meshes projected with eq. 5.14 and
-//! rasterised with a z-buffer, each pixel labelled with its link.
+//! Stage 1: the robot in the depth space (eq. 5.14).
 //!
-//! The thesis projects every mesh vertex; vertices alone leave holes between them at
-//! 640×480, so the triangles between projected vertices are filled too (perspective-correct
-//! depth, pixel centres at integer coordinates, top-left image origin).
+//! * [`RobotPointSet`]: the robot points fDED measures from — every mesh vertex (the thesis's
+//!   points) plus points on the long triangles so that no edge between points is longer than
+//!   `robot_point_spacing` (the LWR meshes have 20 cm edges along the links); built once.
+//!   [`transform_points`] moves them to the camera frame and projects them each frame.
+//! * [`mark_robot`]: robot removal (|d − d_r| ≤ δ) evaluated at a grid of sample pixels only —
+//!   the object lattice, or a small window — by rasterising the link triangles at those
+//!   samples: work ∝ samples covered, not image pixels.
+//! * [`render_virtual_depth`]: the full-resolution virtual depth with a z-buffer and link
+//!   labels, for the baselines and tests (not in the per-frame path).
+//!
+//! Pixel centres at integer coordinates, top-left image origin, perspective-correct depth.
 
 use crate::cam::Cam;
-use crate::layout::{Buffers, NO_LINK, PixelBox};
+use crate::layout::{Buffers, NO_LINK, PixelBox, RobotPoint};
 use cowork_robot::{LinkPoses, RobotModel};
 use nalgebra::{Isometry3, Matrix3, Vector3};
 
@@ -59,11 +66,14 @@ impl RobotMeshes {
 }
 
 /// Moves every mesh vertex into the camera frame (`cam_from_base` · link pose), tagging it
-/// with its link index.
+/// with its link index, and projects it (eq. 5.14) into [`Buffers::vertex_uv`] (NaN behind
+/// the near plane `near`, m).
 pub fn transform_vertices(
     meshes: &RobotMeshes,
     poses: &LinkPoses,
     cam_from_base: &Isometry3<f64>,
+    cam: &Cam,
+    near: f32,
     out: &mut Buffers,
 ) {
     for (l, range) in meshes.link_vertices.iter().enumerate() {
@@ -74,12 +84,14 @@ pub fn transform_vertices(
         let r: Matrix3<f32> = t.rotation.to_rotation_matrix().matrix().cast();
         let p: Vector3<f32> = t.translation.vector.cast();
         let tag = l as f32;
-        for (src, dst) in meshes.vertices[range.clone()]
+        for ((src, dst), uv) in meshes.vertices[range.clone()]
             .iter()
             .zip(&mut out.cam_vertices[range.clone()])
+            .zip(&mut out.vertex_uv[range.clone()])
         {
             let v = r * Vector3::new(src[0], src[1], src[2]) + p;
             *dst = [v.x, v.y, v.z, tag];
+            *uv = if v.z >= near { cam.project(dst) } else { [f32::NAN; 2] };
         }
     }
 }
@@ -160,4 +172,264 @@ pub fn render_virtual_depth(meshes: &RobotMeshes, cam: &Cam, near: f32, out: &mu
 #[inline]
 fn edge(a: [f32; 2], b: [f32; 2], p: [f32; 2]) -> f32 {
     (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+}
+
+/// Triangles per chunk of [`Buffers::chunk_box`]: windows only visit chunks whose pixel box
+/// overlaps them.
+pub const TRI_CHUNK: usize = 32;
+
+/// The robot points: per link, the mesh vertices and extra points on long triangles, link
+/// frame (f32, m).
+#[derive(Debug, Clone)]
+pub struct RobotPointSet {
+    /// Per link: the range of its points in `points`.
+    pub link_points: Vec<std::ops::Range<usize>>,
+    /// All points, link frame, m.
+    pub points: Vec<[f32; 3]>,
+}
+
+impl RobotPointSet {
+    /// The vertices of every link mesh, then, per triangle, the corners of its halvings along
+    /// the longest edge until no edge exceeds `spacing` (m); duplicates dropped.
+    pub fn from_meshes(meshes: &RobotMeshes, spacing: f64) -> Self {
+        let mut points = Vec::with_capacity(meshes.vertices.len() * 4);
+        let mut link_points = Vec::with_capacity(meshes.link_vertices.len());
+        let mut seen = std::collections::HashSet::new();
+        let key = |p: &[f64; 3]| p.map(|c| (c * 1e7).round() as i64);
+        let mut stack: Vec<[[f64; 3]; 3]> = Vec::new();
+        for range in &meshes.link_vertices {
+            let start = points.len();
+            seen.clear();
+            let vert = |i: u32| meshes.vertices[i as usize].map(f64::from);
+            for v in &meshes.vertices[range.clone()] {
+                let p = v.map(f64::from);
+                if seen.insert(key(&p)) {
+                    points.push(*v);
+                }
+            }
+            for tri in meshes.triangles.iter().filter(|t| range.contains(&(t[0] as usize))) {
+                stack.push([vert(tri[0]), vert(tri[1]), vert(tri[2])]);
+                while let Some(t) = stack.pop() {
+                    let len = |a: &[f64; 3], b: &[f64; 3]| {
+                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                    };
+                    let e = [len(&t[1], &t[2]), len(&t[2], &t[0]), len(&t[0], &t[1])];
+                    let k = if e[0] >= e[1] && e[0] >= e[2] { 0 } else if e[1] >= e[2] { 1 } else { 2 };
+                    if e[k] <= spacing {
+                        for p in &t {
+                            if seen.insert(key(p)) {
+                                points.push(p.map(|c| c as f32));
+                            }
+                        }
+                        continue;
+                    }
+                    let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+                    let m = [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5, (a[2] + b[2]) * 0.5];
+                    stack.push([t[k], a, m]);
+                    stack.push([t[k], m, b]);
+                }
+            }
+            link_points.push(start..points.len());
+        }
+        Self { link_points, points }
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// `true` when there are none.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+}
+
+/// Moves the robot points into the camera frame ([`Buffers::cam_points`], tagged with the
+/// link) and projects them ([`Buffers::point_uv`]; NaN when behind the near plane `near` or
+/// outside the image: such points are not in the depth space).
+pub fn transform_points(
+    set: &RobotPointSet,
+    poses: &LinkPoses,
+    cam_from_base: &Isometry3<f64>,
+    cam: &Cam,
+    near: f32,
+    out: &mut Buffers,
+) {
+    let (umax, vmax) = (cam.width as f32 - 0.5, cam.height as f32 - 0.5);
+    for (l, range) in set.link_points.iter().enumerate() {
+        if range.is_empty() {
+            continue;
+        }
+        let t = cam_from_base * poses.get(l);
+        let r: Matrix3<f32> = t.rotation.to_rotation_matrix().matrix().cast();
+        let p: Vector3<f32> = t.translation.vector.cast();
+        let tag = l as f32;
+        for ((src, dst), uv) in set.points[range.clone()]
+            .iter()
+            .zip(&mut out.cam_points[range.clone()])
+            .zip(&mut out.point_uv[range.clone()])
+        {
+            let v = r * Vector3::new(src[0], src[1], src[2]) + p;
+            *dst = [v.x, v.y, v.z, tag];
+            let q = if v.z >= near { cam.project(dst) } else { [f32::NAN; 2] };
+            *uv = if q[0] >= -0.5 && q[0] < umax && q[1] >= -0.5 && q[1] < vmax { q } else { [f32::NAN; 2] };
+        }
+    }
+}
+
+/// Sample pixels `(u0 + i·su, v0 + j·sv)` for `i < nx`, `j < ny`; flags are indexed `j·nx + i`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Grid {
+    /// First column, px.
+    pub u0: u32,
+    /// First row, px.
+    pub v0: u32,
+    /// Column step, px.
+    pub su: u32,
+    /// Row step, px.
+    pub sv: u32,
+    /// Samples per row.
+    pub nx: u32,
+    /// Rows.
+    pub ny: u32,
+}
+
+/// Robot removal settings.
+#[derive(Debug, Clone, Copy)]
+pub struct Removal {
+    /// δ, m.
+    pub delta: f32,
+    /// The triangles are grown by this many pixels (sensor/joint-state misregistration), px.
+    pub margin: f32,
+}
+
+/// Robot removal at the samples of `grid`: a sample whose real depth d (`depth`, full image
+/// of `width` columns) lies within `δ` of the depth d_r of **any** link triangle covering it
+/// (triangles grown by `margin` px) gets `flags = 1`. Triangles `tris` (indices into
+/// `meshes.triangles`); with `chunk_box`, the pixel box of every chunk of [`TRI_CHUNK`]
+/// triangles in `tris` is written too. Samples with d ≤ 0 or NaN are skipped.
+#[allow(clippy::too_many_arguments)]
+pub fn mark_robot(
+    meshes: &RobotMeshes,
+    cam_vertices: &[RobotPoint],
+    vertex_uv: &[[f32; 2]],
+    tris: std::ops::Range<usize>,
+    grid: &Grid,
+    depth: &[f32],
+    width: usize,
+    k: &Removal,
+    flags: &mut [u8],
+    mut chunk_box: Option<&mut [[f32; 4]]>,
+) {
+    let m = k.margin;
+    let (gu0, gv0, su, sv) = (grid.u0 as f32, grid.v0 as f32, grid.su as f32, grid.sv as f32);
+    let (nx, ny) = (grid.nx as f32, grid.ny as f32);
+    let mut cur_chunk = usize::MAX;
+    let mut cbox = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+    for t in tris {
+        if let Some(cb) = chunk_box.as_deref_mut() {
+            let c = t / TRI_CHUNK;
+            if c != cur_chunk {
+                if cur_chunk != usize::MAX {
+                    cb[cur_chunk] = cbox;
+                }
+                cur_chunk = c;
+                cbox = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+            }
+        }
+        let tri = meshes.triangles[t];
+        let (pa, pb, pc) = (vertex_uv[tri[0] as usize], vertex_uv[tri[1] as usize], vertex_uv[tri[2] as usize]);
+        if pa[0].is_nan() || pb[0].is_nan() || pc[0].is_nan() {
+            continue;
+        }
+        let area = edge(pa, pb, pc);
+        if area.abs() < 1e-12 {
+            continue;
+        }
+        let umin = pa[0].min(pb[0]).min(pc[0]) - m;
+        let umax = pa[0].max(pb[0]).max(pc[0]) + m;
+        let vmin = pa[1].min(pb[1]).min(pc[1]) - m;
+        let vmax = pa[1].max(pb[1]).max(pc[1]) + m;
+        if chunk_box.is_some() {
+            cbox = [cbox[0].min(umin), cbox[1].min(vmin), cbox[2].max(umax), cbox[3].max(vmax)];
+        }
+        let i_lo = ((umin - gu0) / su).ceil().max(0.0);
+        let i_hi = ((umax - gu0) / su).floor().min(nx - 1.0);
+        let j_lo = ((vmin - gv0) / sv).ceil().max(0.0);
+        let j_hi = ((vmax - gv0) / sv).floor().min(ny - 1.0);
+        if i_lo > i_hi || j_lo > j_hi {
+            continue;
+        }
+        let s = area.signum();
+        let len = |a: [f32; 2], b: [f32; 2]| ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+        // Edge i is opposite corner i; inside (grown) when s · edge ≥ −margin · length.
+        let edges = [(pb, pc, m * len(pb, pc)), (pc, pa, m * len(pc, pa)), (pa, pb, m * len(pa, pb))];
+        let (a, b, c) = (
+            cam_vertices[tri[0] as usize],
+            cam_vertices[tri[1] as usize],
+            cam_vertices[tri[2] as usize],
+        );
+        let (iza, izb, izc) = (1.0 / a[2], 1.0 / b[2], 1.0 / c[2]);
+        for j in j_lo as u32..=j_hi as u32 {
+            let v = grid.v0 + j * grid.sv;
+            let py = v as f32;
+            let (mut xl, mut xr) = (umin, umax);
+            let mut empty = false;
+            for &(p, q, tol) in &edges {
+                // s · edge(p, q, (x, py)) = alpha · x + beta ≥ −tol
+                let alpha = -s * (q[1] - p[1]);
+                let beta = s * ((q[0] - p[0]) * (py - p[1]) + (q[1] - p[1]) * p[0]);
+                if alpha > 0.0 {
+                    xl = xl.max((-tol - beta) / alpha);
+                } else if alpha < 0.0 {
+                    xr = xr.min((-tol - beta) / alpha);
+                } else if beta < -tol {
+                    empty = true;
+                }
+            }
+            if empty || xl > xr {
+                continue;
+            }
+            let i0 = ((xl - gu0) / su - 1e-3).ceil().max(i_lo) as u32;
+            let i1 = ((xr - gu0) / su + 1e-3).floor().min(i_hi) as u32;
+            let row = v as usize * width;
+            if i0 > i1 {
+                continue;
+            }
+            for i in i0..=i1 {
+                let fi = (j * grid.nx + i) as usize;
+                if flags[fi] != 0 {
+                    continue;
+                }
+                let u = grid.u0 + i * grid.su;
+                let d = depth[row + u as usize];
+                if !(d > 0.0) {
+                    continue;
+                }
+                let p = [u as f32, py];
+                let e0 = s * edge(pb, pc, p);
+                let e1 = s * edge(pc, pa, p);
+                let e2 = s * edge(pa, pb, p);
+                if e0 < -edges[0].2 || e1 < -edges[1].2 || e2 < -edges[2].2 {
+                    continue;
+                }
+                let (w0, w1, w2) = (e0.max(0.0), e1.max(0.0), e2.max(0.0));
+                let sum = w0 + w1 + w2;
+                let z = if sum > 0.0 {
+                    sum / (w0 * iza + w1 * izb + w2 * izc)
+                } else {
+                    3.0 / (iza + izb + izc)
+                };
+                if (d - z).abs() <= k.delta {
+                    flags[fi] = 1;
+                }
+            }
+        }
+    }
+    if let Some(cb) = chunk_box
+        && cur_chunk != usize::MAX
+    {
+        cb[cur_chunk] = cbox;
+    }
 }

@@ -1,134 +1,62 @@
-//! Stages 2–7 of the CPU pipeline, each a plain function over [`Buffers`] so the GPU path can
-//! mirror them one by one (see [`layout`](crate::layout) for the buffers).
+//! Stages 2–7 of the CPU pipeline, each a plain function over [`Buffers`] (see
+//! [`layout`](crate::layout) for the buffers). The GPU path shares stages 1–4 and 7 with the
+//! CPU (they run on the host) and mirrors 5–6 in `fded.wgsl`.
 
 use crate::cam::Cam;
-use crate::layout::{Buffers, LinkBest, NO_LINK, RobotPoint};
+use crate::layout::{Buffers, LinkBest, RobotPoint};
+use crate::raster::{Grid, Removal, RobotMeshes, TRI_CHUNK, mark_robot};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
-/// Constants of the filtering stage (robot removal, table, depth range).
-#[derive(Debug, Clone, Copy)]
-pub struct FilterConsts {
-    /// δ, m.
-    pub delta: f32,
+/// The table plane seen from the camera: a pixel's base-frame z is
+/// `d · (r20 · ray_x + r21 · ray_y + r22) + t_z` at depth d.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TablePlane {
+    /// Last row of the base-from-camera rotation.
+    pub r2: [f32; 3],
+    /// Camera height in the base frame, m.
+    pub tz: f32,
+    /// Points below this base-frame z are table (table top + margin), m.
+    pub z_limit: f32,
+    /// The table top, base-frame z, m: the gray area behind an obstacle ends there.
+    pub z_top: f32,
+}
+
+/// What makes a valid reading an obstacle candidate: depth range and table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Classify {
     /// Accepted depth range, m.
     pub min_depth: f32,
     /// Accepted depth range, m.
     pub max_depth: f32,
-    /// `Some([r20, r21, r22, t_z, z_limit])`: a pixel at depth d is table when
-    /// `d · (r20 · ray_x + r21 · ray_y + r22) + t_z < z_limit` (its base-frame z), where
-    /// `r2·` is the last row of the base-from-camera rotation.
-    pub table: Option<[f32; 5]>,
+    /// The table, if handled.
+    pub table: Option<TablePlane>,
 }
 
-/// Stage 2 for rows `v0..v0 + rows` (`out` holds those rows of `filtered`): keeps the real
-/// depth d only where it is an obstacle — valid (`min_depth ≤ d ≤ max_depth`; 0 and NaN are
-/// not), not the robot (`|d − d_r| > δ` or no robot there) and not the table.
-pub fn filter_rows(
-    depth: &[f32],
-    virtual_depth: &[f32],
-    ray_x: &[f32],
-    ray_y: &[f32],
-    k: &FilterConsts,
-    v0: usize,
-    out: &mut [f32],
-) {
-    let w = ray_x.len();
-    for (r, out_row) in out.chunks_exact_mut(w).enumerate() {
-        let v = v0 + r;
-        let start = v * w;
-        let d_row = &depth[start..start + w];
-        let vd_row = &virtual_depth[start..start + w];
-        match k.table {
-            Some([r20, r21, r22, tz, zlim]) => {
-                let row_c = r21 * ray_y[v] + r22;
-                for (((o, &d), &dr), &rx) in out_row.iter_mut().zip(d_row).zip(vd_row).zip(ray_x) {
-                    let ok = d >= k.min_depth && d <= k.max_depth;
-                    let robot = dr > 0.0 && (d - dr).abs() <= k.delta;
-                    let table = d * (r20 * rx + row_c) + tz < zlim;
-                    *o = if ok && !robot && !table { d } else { 0.0 };
-                }
-            }
-            None => {
-                for ((o, &d), &dr) in out_row.iter_mut().zip(d_row).zip(vd_row) {
-                    let ok = d >= k.min_depth && d <= k.max_depth;
-                    let robot = dr > 0.0 && (d - dr).abs() <= k.delta;
-                    *o = if ok && !robot { d } else { 0.0 };
-                }
-            }
+impl Classify {
+    /// `true` when depth `d` on ray `(rx, ry)` is valid (in range; 0 and NaN are not) and not
+    /// the table. Robot removal is separate ([`mark_robot`]).
+    #[inline]
+    pub fn candidate(&self, d: f32, rx: f32, ry: f32) -> bool {
+        if !(d >= self.min_depth && d <= self.max_depth) {
+            return false;
+        }
+        match self.table {
+            Some(t) => d * (t.r2[0] * rx + t.r2[1] * ry + t.r2[2]) + t.tz >= t.z_limit,
+            None => true,
         }
     }
-}
 
-/// Stage 3: the robot lattice. For every T_s × T_s tile and link, the robot pixel closest to
-/// the tile centre (ties: the first in row-major order) becomes a lattice point; tiles without
-/// robot pixels give none.
-pub fn robot_lattice(buf: &mut Buffers, tile: u32, links: usize) {
-    buf.robot_lattice.clear();
-    buf.robot_lattice_pixel.clear();
-    let b = buf.robot_box;
-    if b.is_empty() {
-        return;
-    }
-    let w = buf.width as usize;
-    let t = tile as usize;
-    let tiles_x = buf.width.div_ceil(tile) as usize;
-    for v in b.v0 as usize..=b.v1 as usize {
-        let ty = v / t;
-        // Doubled coordinates keep the tile centre (T − 1)/2 integral.
-        let dy = (2 * v) as i64 - (2 * ty * t + t - 1) as i64;
-        let dy2 = (dy * dy) as u32;
-        let row = v * w;
-        for u in b.u0 as usize..=b.u1 as usize {
-            let l = buf.labels[row + u];
-            if l == NO_LINK {
-                continue;
+    /// The largest depth the gray area (eq. 5.17) of an obstacle at depth `d` on ray
+    /// `(rx, ry)` may take: where the ray meets the table top (nothing is hidden under the
+    /// table), never less than `d`; ∞ without a table or for rays that do not descend.
+    #[inline]
+    pub fn gray_cap(&self, d: f32, rx: f32, ry: f32) -> f32 {
+        match self.table {
+            Some(t) => {
+                let slope = t.r2[0] * rx + t.r2[1] * ry + t.r2[2];
+                if slope < 0.0 { ((t.z_top - t.tz) / slope).max(d) } else { f32::INFINITY }
             }
-            let tx = u / t;
-            let dx = (2 * u) as i64 - (2 * tx * t + t - 1) as i64;
-            let d2 = (dx * dx) as u32 + dy2;
-            let slot = &mut buf.tile_best[(ty * tiles_x + tx) * links + l as usize];
-            if d2 < slot[0] {
-                *slot = [d2, (row + u) as u32];
-            }
-        }
-    }
-    for ty in b.v0 as usize / t..=b.v1 as usize / t {
-        for tx in b.u0 as usize / t..=b.u1 as usize / t {
-            let base = (ty * tiles_x + tx) * links;
-            for l in 0..links {
-                let slot = &mut buf.tile_best[base + l];
-                if slot[0] == u32::MAX {
-                    continue;
-                }
-                let p = slot[1] as usize;
-                *slot = [u32::MAX; 2];
-                let d = buf.virtual_depth[p];
-                buf.robot_lattice
-                    .push([buf.ray_x[p % w] * d, buf.ray_y[p / w] * d, d, l as f32]);
-                buf.robot_lattice_pixel.push(p as u32);
-            }
-        }
-    }
-}
-
-/// Stage 4: the object lattice — every `step_x`-th column of every `step_y`-th row of
-/// `filtered` that holds an obstacle.
-pub fn object_lattice(buf: &mut Buffers, step_x: u32, step_y: u32) {
-    buf.obj_ray_x.clear();
-    buf.obj_ray_y.clear();
-    buf.obj_depth.clear();
-    buf.obj_pixel.clear();
-    let w = buf.width as usize;
-    for v in (0..buf.height as usize).step_by(step_y as usize) {
-        let row = v * w;
-        for u in (0..w).step_by(step_x as usize) {
-            let d = buf.filtered[row + u];
-            if d > 0.0 {
-                buf.obj_ray_x.push(buf.ray_x[u]);
-                buf.obj_ray_y.push(buf.ray_y[v]);
-                buf.obj_depth.push(d);
-                buf.obj_pixel.push((row + u) as u32);
-            }
+            None => f32::INFINITY,
         }
     }
 }
@@ -142,6 +70,8 @@ pub struct Objects<'a> {
     pub ray_y: &'a [f32],
     /// Measured depth d_o, m.
     pub depth: &'a [f32],
+    /// Gray-area cap ([`Classify::gray_cap`]), m.
+    pub cap: &'a [f32],
 }
 
 impl<'a> Objects<'a> {
@@ -150,7 +80,8 @@ impl<'a> Objects<'a> {
         Self {
             ray_x: &buf.obj_ray_x[range.clone()],
             ray_y: &buf.obj_ray_y[range.clone()],
-            depth: &buf.obj_depth[range],
+            depth: &buf.obj_depth[range.clone()],
+            cap: &buf.obj_cap[range],
         }
     }
 
@@ -167,14 +98,24 @@ impl<'a> Objects<'a> {
 
 /// Eq. 5.15–5.17, squared: the depth-space distance between robot point `r` (camera frame,
 /// `r[2] = d_r`) and the object point on ray `(ox, oy)` at depth `od`, whose depth is first
-/// raised to d_r when the robot point lies behind it (the gray area, eq. 5.17).
+/// raised to d_r when the robot point lies behind it (the gray area, eq. 5.17) — but not
+/// beyond `cap`, where the ray meets the table.
 #[inline(always)]
-pub fn dist2(r: &[f32; 3], ox: f32, oy: f32, od: f32) -> f32 {
+pub fn dist2(r: &[f32; 3], ox: f32, oy: f32, od: f32, cap: f32) -> f32 {
     let d = if r[2] > od { r[2] } else { od };
+    let d = if d > cap { cap } else { d };
     let vx = ox * d - r[0];
     let vy = oy * d - r[1];
     let vz = d - r[2];
     vx * vx + vy * vy + vz * vz
+}
+
+/// The depth the object point on ray `(ox, oy)` at `od` takes against robot depth `dr` (eq.
+/// 5.17 with the table cap).
+#[inline]
+pub fn gray_depth(dr: f32, od: f32, cap: f32) -> f32 {
+    let d = if dr > od { dr } else { od };
+    if d > cap { cap } else { d }
 }
 
 const LANES: usize = 8;
@@ -186,16 +127,17 @@ pub fn min_dist2(r: &[f32; 3], obj: Objects<'_>) -> f32 {
     let (xc, xt) = obj.ray_x.as_chunks::<LANES>();
     let (yc, yt) = obj.ray_y.as_chunks::<LANES>();
     let (dc, dt) = obj.depth.as_chunks::<LANES>();
+    let (cc, ct) = obj.cap.as_chunks::<LANES>();
     let mut m = [f32::INFINITY; LANES];
-    for ((x, y), d) in xc.iter().zip(yc).zip(dc) {
+    for (((x, y), d), c) in xc.iter().zip(yc).zip(dc).zip(cc) {
         for k in 0..LANES {
-            let q = dist2(r, x[k], y[k], d[k]);
+            let q = dist2(r, x[k], y[k], d[k], c[k]);
             m[k] = if q < m[k] { q } else { m[k] };
         }
     }
     let mut best = f32::INFINITY;
-    for ((&x, &y), &d) in xt.iter().zip(yt).zip(dt) {
-        let q = dist2(r, x, y, d);
+    for (((&x, &y), &d), &c) in xt.iter().zip(yt).zip(dt).zip(ct) {
+        let q = dist2(r, x, y, d, c);
         best = if q < best { q } else { best };
     }
     m.iter().fold(best, |a, &b| if b < a { b } else { a })
@@ -206,7 +148,7 @@ pub fn min_dist2(r: &[f32; 3], obj: Objects<'_>) -> f32 {
 pub fn argmin_dist2(r: &[f32; 3], obj: Objects<'_>) -> Option<(usize, f32)> {
     let mut best: Option<(usize, f32)> = None;
     for i in 0..obj.len() {
-        let q = dist2(r, obj.ray_x[i], obj.ray_y[i], obj.depth[i]);
+        let q = dist2(r, obj.ray_x[i], obj.ray_y[i], obj.depth[i], obj.cap[i]);
         if best.is_none_or(|(_, b)| q < b) {
             best = Some((i, q));
         }
@@ -214,18 +156,145 @@ pub fn argmin_dist2(r: &[f32; 3], obj: Objects<'_>) -> Option<(usize, f32)> {
     best
 }
 
-/// Stage 5 on a slice of robot lattice points against object points `obj` (the lattice
-/// sub-range starting at `obj_offset`): lowers `best[link]` for every robot point that comes
-/// closer.
+/// Stage 2: robot removal at the object lattice samples ([`Buffers::lattice_robot`]) and the
+/// triangle chunks' pixel boxes, from the frame's real depth.
+pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, u32), k: &Removal, buf: &mut Buffers) {
+    let grid = Grid {
+        u0: 0,
+        v0: 0,
+        su: step.0,
+        sv: step.1,
+        nx: buf.lattice_nx,
+        ny: buf.lattice_ny,
+    };
+    buf.lattice_robot.fill(0);
+    mark_robot(
+        meshes,
+        &buf.cam_vertices,
+        &buf.vertex_uv,
+        0..meshes.triangles.len(),
+        &grid,
+        depth,
+        buf.width as usize,
+        k,
+        &mut buf.lattice_robot,
+        Some(&mut buf.chunk_box),
+    );
+}
+
+/// Stage 3: the robot lattice. The in-image robot points are grouped per (T_s × T_s tile,
+/// link) slot; in each slot the point whose projection is closest to the tile centre (ties:
+/// the lowest index) becomes a lattice point; slots without points give none. Lattice points
+/// come in ascending slot order.
+pub fn robot_lattice(buf: &mut Buffers, tile: u32, links: usize) {
+    let w = buf.width;
+    let tiles_x = w.div_ceil(tile);
+    buf.active_slots.clear();
+    for (i, uv) in buf.point_uv.iter().enumerate() {
+        if uv[0].is_nan() {
+            buf.point_slot[i] = u32::MAX;
+            continue;
+        }
+        let (pu, pv) = (uv[0].round() as u32, uv[1].round() as u32);
+        let l = buf.cam_points[i][3] as u32;
+        let slot = ((pv / tile) * tiles_x + pu / tile) * links as u32 + l;
+        buf.point_slot[i] = slot;
+        let c = &mut buf.slot_count[slot as usize];
+        if *c == 0 {
+            buf.active_slots.push(slot);
+        }
+        *c += 1;
+    }
+    buf.active_slots.sort_unstable();
+    let mut start = 0u32;
+    for &s in &buf.active_slots {
+        buf.slot_start[s as usize] = start;
+        start += buf.slot_count[s as usize];
+    }
+    buf.slot_points.clear();
+    buf.slot_points.resize(start as usize, 0);
+    // Fill in ascending point order (slot_count counts down, then is back at 0).
+    for (i, &s) in buf.point_slot.iter().enumerate() {
+        if s == u32::MAX {
+            continue;
+        }
+        let s = s as usize;
+        let at = buf.slot_start[s] + buf.slot_count[s] - 1;
+        buf.slot_count[s] -= 1;
+        buf.slot_points[at as usize] = i as u32;
+    }
+    buf.robot_lattice.clear();
+    buf.robot_lattice_info.clear();
+    let half = (tile as f32 - 1.0) * 0.5;
+    let mut first = 0u32;
+    for &s in &buf.active_slots {
+        let tile_index = s / links as u32;
+        let (tx, ty) = (tile_index % tiles_x, tile_index / tiles_x);
+        let (cu, cv) = ((tx * tile) as f32 + half, (ty * tile) as f32 + half);
+        // Points were written from the back of each slot: restore ascending order.
+        let end = if let Some(&next) = buf.active_slots.get(buf.robot_lattice.len() + 1) {
+            buf.slot_start[next as usize]
+        } else {
+            buf.slot_points.len() as u32
+        };
+        let pts = &mut buf.slot_points[first as usize..end as usize];
+        pts.reverse();
+        let mut best = (f32::INFINITY, u32::MAX);
+        for &p in pts.iter() {
+            let uv = buf.point_uv[p as usize];
+            let d = (uv[0] - cu) * (uv[0] - cu) + (uv[1] - cv) * (uv[1] - cv);
+            if d < best.0 {
+                best = (d, p);
+            }
+        }
+        buf.robot_lattice.push(buf.cam_points[best.1 as usize]);
+        buf.robot_lattice_info.push([best.1, s, first, end - first]);
+        first = end;
+    }
+}
+
+/// Stage 4: the object lattice — every `step.0`-th column of every `step.1`-th row whose
+/// depth is a candidate ([`Classify::candidate`]) and that robot removal did not take.
+pub fn object_lattice(buf: &mut Buffers, depth: &[f32], step: (u32, u32), k: &Classify) {
+    buf.obj_ray_x.clear();
+    buf.obj_ray_y.clear();
+    buf.obj_depth.clear();
+    buf.obj_cap.clear();
+    buf.obj_pixel.clear();
+    let w = buf.width as usize;
+    let nx = buf.lattice_nx as usize;
+    for j in 0..buf.lattice_ny as usize {
+        let v = j * step.1 as usize;
+        let row = v * w;
+        let ry = buf.ray_y[v];
+        let flags = &buf.lattice_robot[j * nx..(j + 1) * nx];
+        for (i, &f) in flags.iter().enumerate() {
+            let u = i * step.0 as usize;
+            let d = depth[row + u];
+            let rx = buf.ray_x[u];
+            if f != 0 || !k.candidate(d, rx, ry) {
+                continue;
+            }
+            buf.obj_ray_x.push(rx);
+            buf.obj_ray_y.push(ry);
+            buf.obj_depth.push(d);
+            buf.obj_cap.push(k.gray_cap(d, rx, ry));
+            buf.obj_pixel.push((row + u) as u32);
+        }
+    }
+}
+
+/// Stage 5 on robot lattice points `robot` (entries `first..` of the lattice, with `info`)
+/// against object points `obj`: lowers `best[link]` for every robot point that comes closer.
 pub fn lattice_minimum(
     robot: &[RobotPoint],
-    robot_pixel: &[u32],
+    info: &[[u32; 4]],
+    first: usize,
     obj: Objects<'_>,
     obj_pixel: &[u32],
-    tile_of: impl Fn(u32) -> u32,
     best: &mut [LinkBest],
 ) {
-    for (r, &rp) in robot.iter().zip(robot_pixel) {
+    for (k, (r, inf)) in robot.iter().zip(info).enumerate() {
         let p = [r[0], r[1], r[2]];
         let l = r[3] as usize;
         let m = min_dist2(&p, obj);
@@ -234,146 +303,164 @@ pub fn lattice_minimum(
         {
             best[l] = LinkBest {
                 dist2: q,
-                robot_pixel: rp,
+                robot_point: inf[0],
                 object_pixel: obj_pixel[j],
-                tile: tile_of(rp),
+                lattice: (first + k) as u32,
             };
         }
     }
 }
 
-/// Stage 6 for one link: every robot pixel of `link` in tile `tile` against `obj`; lowers
-/// `best` when one comes closer.
-#[allow(clippy::too_many_arguments)]
-pub fn refine_tile(
-    buf_vd: &[f32],
-    labels: &[u8],
-    ray_x: &[f32],
-    ray_y: &[f32],
-    cam: &Cam,
-    tile_size: u32,
-    tile: u32,
-    link: u8,
-    obj: Objects<'_>,
-    obj_pixel: &[u32],
-    best: &mut LinkBest,
-) {
-    let w = cam.width as usize;
-    let t = tile_size as usize;
-    let tiles_x = cam.width.div_ceil(tile_size) as usize;
-    let (tx, ty) = (tile as usize % tiles_x, tile as usize / tiles_x);
-    let u1 = ((tx + 1) * t).min(w);
-    let v1 = ((ty + 1) * t).min(cam.height as usize);
-    for v in ty * t..v1 {
-        let row = v * w;
-        for u in tx * t..u1 {
-            let i = row + u;
-            if labels[i] != link {
-                continue;
-            }
-            let d = buf_vd[i];
-            let p = [ray_x[u] * d, ray_y[v] * d, d];
-            let m = min_dist2(&p, obj);
-            if m < best.dist2
-                && let Some((j, q)) = argmin_dist2(&p, obj)
-            {
-                *best = LinkBest {
-                    dist2: q,
-                    robot_pixel: i as u32,
-                    object_pixel: obj_pixel[j],
-                    tile,
-                };
-            }
+/// Stage 6 for one link: every robot point of lattice entry `lattice`'s slot against `obj`;
+/// lowers `best` when one comes closer.
+pub fn refine_slot(buf_points: &[RobotPoint], slot_points: &[u32], info: [u32; 4], lattice: u32, obj: Objects<'_>, obj_pixel: &[u32], best: &mut LinkBest) {
+    let (first, count) = (info[2] as usize, info[3] as usize);
+    for &pi in &slot_points[first..first + count] {
+        let r = buf_points[pi as usize];
+        let p = [r[0], r[1], r[2]];
+        let m = min_dist2(&p, obj);
+        if m < best.dist2
+            && let Some((j, q)) = argmin_dist2(&p, obj)
+        {
+            *best = LinkBest {
+                dist2: q,
+                robot_point: pi,
+                object_pixel: obj_pixel[j],
+                lattice,
+            };
         }
     }
 }
 
-/// The `refine_obstacle` addition for one link: every obstacle pixel of the real depth within
-/// `±(step − 1)` px of the best object pixel against the best robot point, then every robot
-/// pixel of the tile against the (possibly new) object pixel.
-pub fn refine_obstacle(buf: &Buffers, cam: &Cam, tile_size: u32, step: (u32, u32), link: u8, best: &mut LinkBest) {
+/// Classifies the pixels of the window `[u0, u0 + nw) × [v0, v0 + nh)` into
+/// [`Buffers::window`] (obstacle depth, or 0): candidate depth and not removed as the robot
+/// (triangles of the chunks overlapping the window only).
+#[allow(clippy::too_many_arguments)]
+pub fn classify_window(
+    meshes: &RobotMeshes,
+    depth: &[f32],
+    k: &Classify,
+    removal: &Removal,
+    u0: u32,
+    v0: u32,
+    nw: u32,
+    nh: u32,
+    buf: &mut Buffers,
+) {
+    let n = (nw * nh) as usize;
+    let w = buf.width as usize;
+    let flags = &mut buf.window_robot[..n];
+    flags.fill(0);
+    let grid = Grid {
+        u0,
+        v0,
+        su: 1,
+        sv: 1,
+        nx: nw,
+        ny: nh,
+    };
+    let (wu0, wv0, wu1, wv1) = (u0 as f32, v0 as f32, (u0 + nw) as f32 - 1.0, (v0 + nh) as f32 - 1.0);
+    let tris = meshes.triangles.len();
+    for (c, b) in buf.chunk_box.iter().enumerate() {
+        if b[0] > wu1 || b[2] < wu0 || b[1] > wv1 || b[3] < wv0 {
+            continue;
+        }
+        let range = c * TRI_CHUNK..((c + 1) * TRI_CHUNK).min(tris);
+        mark_robot(meshes, &buf.cam_vertices, &buf.vertex_uv, range, &grid, depth, w, removal, flags, None);
+    }
+    for j in 0..nh as usize {
+        let v = v0 as usize + j;
+        let ry = buf.ray_y[v];
+        for i in 0..nw as usize {
+            let u = u0 as usize + i;
+            let d = depth[v * w + u];
+            let keep = flags[j * nw as usize + i] == 0 && k.candidate(d, buf.ray_x[u], ry);
+            buf.window[j * nw as usize + i] = if keep { d } else { 0.0 };
+        }
+    }
+}
+
+/// A window of `half` px around pixel `p`, clipped to the image: `(u0, v0, nw, nh)`.
+pub fn window_around(p: u32, half: (u32, u32), width: u32, height: u32) -> (u32, u32, u32, u32) {
+    let (u, v) = (p % width, p / width);
+    let u0 = u.saturating_sub(half.0);
+    let v0 = v.saturating_sub(half.1);
+    let u1 = (u + half.0).min(width - 1);
+    let v1 = (v + half.1).min(height - 1);
+    (u0, v0, u1 - u0 + 1, v1 - v0 + 1)
+}
+
+/// The `refine_obstacle` addition for one link, after [`classify_window`] filled the window
+/// `(u0, v0, nw, nh)` around the best object pixel (±(S − 1) px): every obstacle pixel there
+/// against the best robot point, then every robot point of the slot against the (possibly
+/// new) object pixel.
+#[allow(clippy::too_many_arguments)]
+pub fn refine_obstacle(buf: &Buffers, k: &Classify, win: (u32, u32, u32, u32), best: &mut LinkBest) {
     if !best.is_some() {
         return;
     }
-    let w = cam.width as usize;
-    let h = cam.height as usize;
-    let rp = best.robot_pixel as usize;
-    let d = buf.virtual_depth[rp];
-    let r = [buf.ray_x[rp % w] * d, buf.ray_y[rp / w] * d, d];
-    let op = best.object_pixel as usize;
-    let (ou, ov) = (op % w, op / w);
-    let (sx, sy) = (step.0 as usize - 1, step.1 as usize - 1);
-    for v in ov.saturating_sub(sy)..(ov + sy + 1).min(h) {
-        let row = v * w;
-        for u in ou.saturating_sub(sx)..(ou + sx + 1).min(w) {
-            let od = buf.filtered[row + u];
+    let w = buf.width as usize;
+    let rp = buf.cam_points[best.robot_point as usize];
+    let r = [rp[0], rp[1], rp[2]];
+    let (u0, v0, nw, nh) = (win.0 as usize, win.1 as usize, win.2 as usize, win.3 as usize);
+    for j in 0..nh {
+        let v = v0 + j;
+        let ry = buf.ray_y[v];
+        for i in 0..nw {
+            let od = buf.window[j * nw + i];
             if od > 0.0 {
-                let q = dist2(&r, buf.ray_x[u], buf.ray_y[v], od);
+                let u = u0 + i;
+                let rx = buf.ray_x[u];
+                let q = dist2(&r, rx, ry, od, k.gray_cap(od, rx, ry));
                 if q < best.dist2 {
                     best.dist2 = q;
-                    best.object_pixel = (row + u) as u32;
+                    best.object_pixel = (v * w + u) as u32;
                 }
             }
         }
     }
     let op = best.object_pixel as usize;
-    let (ou, ov) = (op % w, op / w);
+    let (ou, ov) = (op % w - u0, op / w - v0);
+    let od = buf.window[ov * nw + ou];
+    let (rx, ry) = (buf.ray_x[op % w], buf.ray_y[op / w]);
+    let cap = k.gray_cap(od, rx, ry);
     let one = Objects {
-        ray_x: std::slice::from_ref(&buf.ray_x[ou]),
-        ray_y: std::slice::from_ref(&buf.ray_y[ov]),
-        depth: std::slice::from_ref(&buf.filtered[op]),
+        ray_x: std::slice::from_ref(&rx),
+        ray_y: std::slice::from_ref(&ry),
+        depth: std::slice::from_ref(&od),
+        cap: std::slice::from_ref(&cap),
     };
     let pix = [op as u32];
-    refine_tile(
-        &buf.virtual_depth,
-        &buf.labels,
-        &buf.ray_x,
-        &buf.ray_y,
-        cam,
-        tile_size,
-        best.tile,
-        link,
-        one,
-        &pix,
-        best,
-    );
+    let lattice = best.lattice;
+    refine_slot(&buf.cam_points, &buf.slot_points, buf.robot_lattice_info[lattice as usize], lattice, one, &pix, best);
 }
 
-/// Stage 7: the obstacle normal at pixel `object_pixel` (camera frame, unit), from a weighted
-/// least-squares plane through the obstacle pixels of a square window of about `window_points`
-/// pixels around it (thesis: L = 1 % of the image), weights `exp(−‖p − o‖² / σ²)`; oriented
-/// towards `toward` (the robot point). `None` when fewer than 3 points or a degenerate fit.
-pub fn obstacle_normal(
-    buf: &Buffers,
-    object_pixel: u32,
-    window_points: usize,
-    sigma: f32,
-    toward: &Vector3<f32>,
-) -> Option<Vector3<f32>> {
-    let w = buf.width as usize;
-    let h = buf.height as usize;
-    let op = object_pixel as usize;
-    let (ou, ov) = (op % w, op / w);
-    let d0 = buf.filtered[op];
+/// Stage 7: the obstacle normal at the window's pixel `(ou, ov)` (camera frame, unit,
+/// unoriented), from a weighted least-squares plane through the obstacle pixels of the window
+/// `(u0, v0, nw, nh)` classified by [`classify_window`] (thesis: L = 1 % of the image's
+/// points), weights `exp(−‖p − o‖² / σ²)`. `None` when fewer than 3 points or a degenerate fit.
+pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), object_pixel: u32, sigma: f32) -> Option<Vector3<f32>> {
+    let w = buf.width;
+    let (u0, v0, nw, nh) = win;
+    let (ou, ov) = (object_pixel % w, object_pixel / w);
+    let d0 = buf.window[((ov - v0) * nw + (ou - u0)) as usize];
     if d0 <= 0.0 {
         return None;
     }
-    let o = Vector3::new(buf.ray_x[ou] * d0, buf.ray_y[ov] * d0, d0);
-    let half = ((window_points as f64).sqrt() / 2.0).ceil() as usize;
+    let o = Vector3::new(buf.ray_x[ou as usize] * d0, buf.ray_y[ov as usize] * d0, d0);
     let inv_s2 = 1.0 / (sigma * sigma);
     let mut sw = 0.0f64;
     let mut s1 = Vector3::<f64>::zeros();
     let mut s2 = Matrix3::<f64>::zeros();
     let mut count = 0usize;
-    for v in ov.saturating_sub(half)..(ov + half + 1).min(h) {
-        let row = v * w;
-        let ry = buf.ray_y[v];
-        for u in ou.saturating_sub(half)..(ou + half + 1).min(w) {
-            let d = buf.filtered[row + u];
+    for j in 0..nh {
+        let ry = buf.ray_y[(v0 + j) as usize];
+        let row = &buf.window[(j * nw) as usize..((j + 1) * nw) as usize];
+        for (i, &d) in row.iter().enumerate() {
             if d <= 0.0 {
                 continue;
             }
-            let p = Vector3::new(buf.ray_x[u] * d, ry * d, d);
+            let p = Vector3::new(buf.ray_x[u0 as usize + i] * d, ry * d, d);
             let q = p - o;
             let wgt = (-q.norm_squared() * inv_s2).exp();
             if wgt < 1e-6 {
@@ -399,6 +486,16 @@ pub fn obstacle_normal(
         return None;
     }
     let n: Vector3<f32> = eig.eigenvectors.column(order[0]).into_owned().cast();
-    let n = n.try_normalize(1e-6)?;
-    Some(if n.dot(&(toward - o)) < 0.0 { -n } else { n })
+    n.try_normalize(1e-6)
+}
+
+/// The camera model's ray tables.
+pub fn rays(cam: &Cam, ray_x: &mut [f32], ray_y: &mut [f32], k: &cowork_depth::Intrinsics) {
+    debug_assert_eq!(ray_x.len(), cam.width as usize);
+    for (u, r) in ray_x.iter_mut().enumerate() {
+        *r = ((u as f64 - k.cx) / k.fx) as f32;
+    }
+    for (v, r) in ray_y.iter_mut().enumerate() {
+        *r = ((v as f64 - k.cy) / k.fy) as f32;
+    }
 }

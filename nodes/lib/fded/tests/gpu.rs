@@ -133,12 +133,10 @@ fn gpu_agrees_with_cpu_within_1mm() {
             cpu.process(&frame, &mut co).expect("cpu frame");
             gpu.process(&frame, &mut go).expect("gpu frame");
             let tag = format!("{} T_s={} S={} refine_obstacle={} table={:?}", s.name, params.tile_size, params.step_x, params.refine_obstacle, params.table_z);
-            // Same filtered depth bit for bit (robot removal, table, range, NaN).
-            let differ = cpu.buffers().filtered.iter().zip(gpu.filtered()).filter(|(a, b)| a.to_bits() != b.to_bits()).count();
-            assert!(differ * 10_000 <= cpu.buffers().filtered.len(), "{tag}: {differ} filtered pixels differ");
-            assert_eq!(co.counts.object_lattice, go.counts.object_lattice, "{tag}: object lattice size");
-            let dr = co.counts.robot_lattice.abs_diff(go.counts.robot_lattice);
-            assert!(dr * 50 <= co.counts.robot_lattice.max(1), "{tag}: robot lattice {} vs {}", co.counts.robot_lattice, go.counts.robot_lattice);
+            // The host stages are shared: the same lattices.
+            assert_eq!(cpu.buffers().obj_pixel, gpu.buffers().obj_pixel, "{tag}: object lattice");
+            assert_eq!(cpu.buffers().robot_lattice_info, gpu.buffers().robot_lattice_info, "{tag}: robot lattice");
+            assert_eq!(co.counts, go.counts, "{tag}: lattice sizes");
             compare(&tag, &co, &go, &mut agg);
         }
     }

@@ -6,7 +6,7 @@ mod common;
 use common::{look_at, model, plane, robot, sphere};
 use cowork_depth::{DepthImage, Intrinsics};
 use cowork_fded::baseline::{Flacco, FlaccoParams, brute_force};
-use cowork_fded::{Fded, FdedOutput, FdedParams, Frame, NO_LINK};
+use cowork_fded::{Fded, FdedOutput, FdedParams, Frame};
 use nalgebra::{Isometry3, Point3, Vector3};
 
 const Q: [f64; 7] = [0.0, 0.5, 0.0, 1.2, 0.0, 0.8, 0.0];
@@ -34,13 +34,15 @@ fn run(params: FdedParams, depth: &DepthImage, stamp: f64) -> (Fded, FdedOutput)
 }
 
 #[test]
-fn unit_tiles_and_steps_equal_brute_force_and_coarser_never_beat_it() {
+fn one_tile_and_unit_steps_equal_brute_force_and_coarser_never_beat_it() {
     let (k, cam) = setup();
     let depth = scene(&k, &cam);
     let mut f = Fded::new(&model(), &k, FdedParams::default()).unwrap();
     let bf = brute_force(&mut f, &Frame { stamp: 0.0, depth: &depth, camera_pose: &cam, joints: Some(&Q) }).unwrap();
     assert!(bf.iter().filter(|b| b.is_some()).count() >= 4);
-    let exact = run(FdedParams { tile_size: 1, step_x: 1, step_y: 1, ..FdedParams::default() }, &depth, 0.0).1;
+    // One tile over the whole image: the refinement visits every point of each link against
+    // every object pixel, which is the brute force.
+    let exact = run(FdedParams { tile_size: 1024, step_x: 1, step_y: 1, ..FdedParams::default() }, &depth, 0.0).1;
     for (l, b) in bf.iter().enumerate() {
         let e = &exact.links[l];
         assert_eq!(e.valid, b.is_some());
@@ -48,7 +50,7 @@ fn unit_tiles_and_steps_equal_brute_force_and_coarser_never_beat_it() {
             assert!((e.distance - f64::from(b.dist2).sqrt()).abs() < 1e-6, "link {l}");
         }
     }
-    for (tile, step, refine) in [(32, 16, false), (32, 16, true), (8, 4, false), (64, 32, true)] {
+    for (tile, step, refine) in [(1, 1, false), (32, 16, false), (32, 16, true), (8, 4, false), (64, 32, true)] {
         let p = FdedParams { tile_size: tile, step_x: step, step_y: step, refine_obstacle: refine, ..FdedParams::default() };
         let out = run(p, &depth, 0.0).1;
         for (l, b) in bf.iter().enumerate() {
@@ -68,20 +70,35 @@ fn robot_lattice_has_one_point_per_tile_and_link() {
     for tile in [8u32, 32] {
         let (f, _) = run(FdedParams { tile_size: tile, ..FdedParams::default() }, &depth, 0.0);
         let b = f.buffers();
-        let w = b.width;
+        let links = f.model().link_count() as u32;
+        let tiles_x = k.width.div_ceil(tile);
         let mut seen = std::collections::HashSet::new();
         assert!(!b.robot_lattice.is_empty());
-        for (p, &pix) in b.robot_lattice.iter().zip(&b.robot_lattice_pixel) {
-            let l = p[3] as u8;
-            assert_eq!(b.labels[pix as usize], l);
-            let t = ((pix / w) / tile, (pix % w) / tile);
-            assert!(seen.insert((t, l)), "two points for tile {t:?} link {l}");
+        for (p, info) in b.robot_lattice.iter().zip(&b.robot_lattice_info) {
+            let [point, slot, first, count] = *info;
+            let l = p[3] as u32;
+            assert_eq!(slot % links, l);
+            assert_eq!(b.cam_points[point as usize], *p);
+            assert!(seen.insert(slot), "two points for slot {slot}");
+            // Every point of the slot projects into the tile, belongs to the link, and none is
+            // closer to the tile centre than the lattice point.
+            let (tx, ty) = ((slot / links) % tiles_x, (slot / links) / tiles_x);
+            let c = ((tx * tile) as f32 + (tile as f32 - 1.0) / 2.0, (ty * tile) as f32 + (tile as f32 - 1.0) / 2.0);
+            let d = |i: u32| {
+                let uv = b.point_uv[i as usize];
+                (uv[0] - c.0).powi(2) + (uv[1] - c.1).powi(2)
+            };
+            for &i in &b.slot_points[first as usize..(first + count) as usize] {
+                let uv = b.point_uv[i as usize];
+                assert_eq!(((uv[0].round() as u32) / tile, (uv[1].round() as u32) / tile), (tx, ty));
+                assert_eq!(b.cam_points[i as usize][3] as u32, l);
+                assert!(d(i) >= d(point));
+            }
         }
-        // Every (tile, link) that holds robot pixels is represented.
-        for (i, &l) in b.labels.iter().enumerate() {
-            if l != NO_LINK {
-                let i = i as u32;
-                assert!(seen.contains(&(((i / w) / tile, (i % w) / tile), l)));
+        // Every robot point in the image is in some slot with a lattice point.
+        for (i, uv) in b.point_uv.iter().enumerate() {
+            if !uv[0].is_nan() {
+                assert!(seen.contains(&b.point_slot[i]), "point {i} in no lattice slot");
             }
         }
     }
@@ -99,7 +116,8 @@ fn the_robot_and_the_table_are_not_obstacles() {
     // Within δ of the virtual depth the robot is still removed; beyond it, not.
     let mut near = d.clone();
     let mut far = d.clone();
-    let (f, _) = run(FdedParams::default(), &d, 0.0);
+    let mut f = Fded::new(&m, &k, FdedParams::default()).unwrap();
+    f.prepare(&Frame { stamp: 0.0, depth: &d, camera_pose: &cam, joints: Some(&Q) }).unwrap();
     for (i, &vd) in f.buffers().virtual_depth.iter().enumerate() {
         if vd > 0.0 {
             near.data[i] = vd + 0.04;

@@ -88,11 +88,12 @@ impl Flacco {
         &self.spheres
     }
 
-    /// Runs `fded`'s stages 1–2 on `frame` (robot removal as the thesis did for both methods),
+    /// Classifies every pixel of `frame` with `fded`'s robot removal, table and range
+    /// ([`Fded::classify_full`]; the thesis removed the robot the same way for both methods),
     /// then the sphere distances. Fills `per_link` (one per link of the model; `None` for links
     /// without a sphere) with the smallest sphere-surface distance of each link, m.
     pub fn distances(&mut self, fded: &mut Fded, frame: &Frame<'_>, per_link: &mut Vec<Option<f64>>) -> Result<()> {
-        fded.prepare(frame)?;
+        fded.classify_full(frame)?;
         self.distances_prepared(fded, frame, per_link);
         Ok(())
     }
@@ -150,7 +151,7 @@ impl Flacco {
                         if d <= 0.0 || d < lo || d > hi || d < dlo || d > dhi {
                             continue;
                         }
-                        let q = dist2(&r, buf.ray_x[u as usize], ry, d);
+                        let q = dist2(&r, buf.ray_x[u as usize], ry, d, f32::INFINITY);
                         if q < best {
                             best = q;
                         }
