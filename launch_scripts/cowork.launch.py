@@ -37,6 +37,7 @@ def generate_launch_description():
                 "scene", default_value="config/scenes/kitchen.yaml", description="scene file"
             ),
             node("lwr_sim", "--rate", rate, "--scene", scene),
+            node("fded_distance", "--params", "config/fded_distance.yaml", "--use-sim-time"),
             node("attentional_supervisor", "--ltm", "config/tasks/kitchen.schema", "--task", "pourDrink"),
         ]
     )

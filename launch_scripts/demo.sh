@@ -30,6 +30,11 @@ $cw topic list --wait 3 | sed 's/^/  /'
 echo "== start pose"
 joints; tool
 
+echo "== fDED: closest obstacle per link from the depth camera (/fded/distances)"
+$cw topic echo /fded/distances -n 1 --wait 20 |
+  python3 -c 'import json,sys; m=json.load(sys.stdin); i=m["min_index"]; l=m["links"][i] if i >= 0 else None
+print("  backend %s, processing %.1f ms; " % (m["backend"], 1e3 * m["processing_time"]) + ("closest: %s at %.3f m" % (l["link_name"], l["distance"]) if l else "no obstacle in view"))'
+
 echo "== joint velocity command: joint 1 at 0.3 rad/s for 2 s (re-sent at 50 Hz)"
 $cw topic pub /lwr/joint_velocity_command std_msgs/msg/Float64MultiArray \
   '{"data": [0.3, 0, 0, 0, 0, 0, 0]}' --rate 50 --count 100 --wait 5

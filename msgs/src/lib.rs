@@ -7,7 +7,7 @@
 //!
 //! * standard types the graph uses live in modules named after their ROS package
 //!   ([`std_msgs`], [`builtin_interfaces`], [`sensor_msgs`], [`geometry_msgs`], [`tf2_msgs`],
-//!   [`rosgraph_msgs`]); their `.msg` texts are in `msgs/ros_std/` (field lines as upstream);
+//!   [`rosgraph_msgs`], [`visualization_msgs`]); their `.msg` texts are in `msgs/ros_std/` (field lines as upstream);
 //! * the custom `cowork_msgs` types live in [`msg`]; their `.msg` files in `msgs/msg/` form a
 //!   real ROS 2 interface package (`package.xml`, `CMakeLists.txt`).
 //!
@@ -41,6 +41,7 @@ pub mod rosgraph_msgs;
 pub mod sensor_msgs;
 pub mod std_msgs;
 pub mod tf2_msgs;
+pub mod visualization_msgs;
 
 pub use cdr::{CdrError, from_cdr, to_cdr, to_cdr_into};
 pub use registry::{MessageTypeInfo, find_type, known_types, type_name_matches};
@@ -222,6 +223,7 @@ macro_rules! __for_all_message_types {
             std_msgs::MultiArrayDimension,
             std_msgs::MultiArrayLayout,
             std_msgs::Float64MultiArray,
+            std_msgs::ColorRGBA,
             geometry_msgs::Point,
             geometry_msgs::Point32,
             geometry_msgs::Vector3,
@@ -237,7 +239,12 @@ macro_rules! __for_all_message_types {
             sensor_msgs::Image,
             sensor_msgs::RegionOfInterest,
             sensor_msgs::CameraInfo,
+            sensor_msgs::CompressedImage,
             tf2_msgs::TFMessage,
+            visualization_msgs::UVCoordinate,
+            visualization_msgs::MeshFile,
+            visualization_msgs::Marker,
+            visualization_msgs::MarkerArray,
             rosgraph_msgs::Clock,
             msg::Skeleton,
             msg::HumanState,

@@ -1,4 +1,4 @@
-//! `sensor_msgs`: joint states, images and camera calibration.
+//! `sensor_msgs`: joint states, images (raw and compressed) and camera calibration.
 
 use serde::{Deserialize, Serialize};
 
@@ -93,3 +93,17 @@ pub struct CameraInfo {
 }
 
 ros_message!(CameraInfo = "sensor_msgs" / "CameraInfo" in "ros_std/sensor_msgs/msg", deps [Header, RegionOfInterest]);
+
+/// A compressed image (`format` names the codec, e.g. `"png"`); a marker's embedded texture.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CompressedImage {
+    /// Acquisition time and camera optical frame.
+    pub header: Header,
+    /// Codec, e.g. `"jpeg"`, `"png"`.
+    pub format: String,
+    /// Compressed bytes.
+    #[serde(with = "crate::bytes")]
+    pub data: Vec<u8>,
+}
+
+ros_message!(CompressedImage = "sensor_msgs" / "CompressedImage" in "ros_std/sensor_msgs/msg", deps [Header]);

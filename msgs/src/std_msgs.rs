@@ -1,4 +1,4 @@
-//! `std_msgs`: header, string and float64 multi-array.
+//! `std_msgs`: header, string, float64 multi-array and RGBA colour.
 
 use serde::{Deserialize, Serialize};
 
@@ -86,3 +86,25 @@ impl Float64MultiArray {
 }
 
 ros_message!(Float64MultiArray = "std_msgs" / "Float64MultiArray" in "ros_std/std_msgs/msg", deps [MultiArrayLayout]);
+
+/// An RGBA colour, each component in [0, 1] (viewers' markers).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ColorRGBA {
+    /// Red.
+    pub r: f32,
+    /// Green.
+    pub g: f32,
+    /// Blue.
+    pub b: f32,
+    /// Alpha (0 transparent, 1 opaque).
+    pub a: f32,
+}
+
+impl ColorRGBA {
+    /// The colour `(r, g, b, a)`.
+    pub const fn new(r: f32, g: f32, b: f32, a: f32) -> Self {
+        Self { r, g, b, a }
+    }
+}
+
+ros_message!(ColorRGBA = "std_msgs" / "ColorRGBA" in "ros_std/std_msgs/msg", deps []);

@@ -9,7 +9,8 @@ use cowork_ros::{NodeConfig, RosNode};
 use fded_distance::{FdedNode, Params, RunOptions};
 
 /// fDED: per depth frame on `/camera/depth/image_raw`, the distance of every robot link to the
-/// closest obstacle, with points, normal and obstacle velocity, on `/fded/distances`.
+/// closest obstacle, with points, normal and obstacle velocity, on `/fded/distances`, and
+/// markers for viewers on `/fded/markers`.
 #[derive(Debug, Parser)]
 #[command(version)]
 struct Args {
@@ -54,5 +55,6 @@ fn main() -> Result<()> {
     let fded = FdedNode::new(model, params)?;
     cowork_ros::shutdown::install();
     let node = RosNode::new("fded_distance", &NodeConfig { use_sim_time, ..NodeConfig::default() })?;
-    fded_distance::run(node, fded, &RunOptions { duration_s: args.duration, stop: None })
+    fded_distance::run(node, fded, &RunOptions { duration_s: args.duration, stop: None })?;
+    Ok(())
 }

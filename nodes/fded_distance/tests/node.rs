@@ -15,6 +15,7 @@ use cowork_msgs::msg::LinkDistances;
 use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use cowork_msgs::std_msgs::Header;
 use cowork_msgs::tf2_msgs::TFMessage;
+use cowork_msgs::visualization_msgs::{Marker, MarkerArray};
 use cowork_robot::RobotModel;
 use cowork_ros::{NodeConfig, RosNode, qos};
 use fded_distance::{FdedNode, Params, RunOptions};
@@ -123,7 +124,10 @@ fn bad_input_is_skipped_and_good_frames_match_the_library() {
     js.position.pop();
     assert_eq!(node.on_joint_state(&js).expect_err("short joint state").kind, "joint_state");
     node.on_joint_state(&joint_state(&model, &Q, Time::from_secs_f64(1.0))).expect("joint state");
-    node.on_tf_static(&tf_static(&model.link_names()[0], &cam));
+    let mut bad_tf = tf_static(&model.link_names()[0], &cam);
+    bad_tf.transforms[0].transform.rotation.w = f64::NAN;
+    assert_eq!(node.on_tf_static(&bad_tf).expect_err("NaN rotation").kind, "tf_static");
+    node.on_tf_static(&tf_static(&model.link_names()[0], &cam)).expect("tf_static");
 
     let want = reference(&model, &k, &cam, &Q, &img);
     let got = node.on_depth(&msg32).expect("32FC1 frame").clone();
@@ -136,6 +140,22 @@ fn bad_input_is_skipped_and_good_frames_match_the_library() {
     assert!(got.processing_time > 0.0);
     assert_eq!(got.header.frame_id, model.link_names()[0]);
     assert_eq!(got.links.len(), model.link_count());
+    // Markers: four per link, the closest link's segment joining its two points.
+    let markers = node.markers().clone();
+    assert_eq!(markers.markers.len(), 4 * model.link_count());
+    let seg = markers
+        .markers
+        .iter()
+        .find(|mk| mk.ns == fded_distance::markers::NS_SEGMENT && mk.id == got.min_index)
+        .expect("segment of the closest link");
+    assert_eq!(seg.action, Marker::ADD);
+    assert_eq!(seg.header, got.header);
+    assert_eq!(seg.points, vec![m.robot_point, m.obstacle_point]);
+    for (i, l) in got.links.iter().enumerate() {
+        let actions: Vec<i32> = markers.markers[4 * i..4 * i + 4].iter().map(|mk| mk.action).collect();
+        let want = if l.valid { Marker::ADD } else { Marker::DELETE };
+        assert!(actions.iter().all(|&a| a == want), "link {} valid {} markers {actions:?}", l.link_name, l.valid);
+    }
 
     // 16UC1: the same scene quantised to mm still gives the distance within a few mm.
     let msg16 = img.to_image_msg(Time::from_secs_f64(1.1), FRAME, Encoding::U16Millimetres);
@@ -143,22 +163,65 @@ fn bad_input_is_skipped_and_good_frames_match_the_library() {
     let d16 = got16.links[got16.min_index as usize].distance;
     assert!((d16 - want).abs() <= 5e-3, "16UC1: {d16} vs {want}");
 
-    // Unknown encoding, wrong size, truncated data: skipped, and the node goes on.
+    // Unknown encoding, wrong size, truncated data, step x height != size: skipped with the
+    // topic and the reason, and the node goes on.
     let mut rgb = msg32.clone();
     rgb.encoding = "rgb8".into();
-    assert_eq!(node.on_depth(&rgb).expect_err("rgb8").kind, "image");
+    let s = node.on_depth(&rgb).expect_err("rgb8");
+    assert_eq!(s.kind, "image");
+    assert!(s.message.contains("/camera/depth/image_raw") && s.message.contains("rgb8"), "{}", s.message);
     let small = DepthImage::new(320, 240).to_image_msg(Time::default(), FRAME, Encoding::F32Metres);
-    assert_eq!(node.on_depth(&small).expect_err("size").kind, "size");
+    let s = node.on_depth(&small).expect_err("size");
+    assert_eq!(s.kind, "size");
+    assert!(s.message.contains("320x240"), "{}", s.message);
     let mut short = msg32.clone();
     short.data.truncate(1000);
     assert_eq!(node.on_depth(&short).expect_err("short data").kind, "image");
+    let mut long = msg32.clone();
+    long.data.extend_from_slice(&[0; 4]);
+    assert_eq!(node.on_depth(&long).expect_err("data longer than step x height").kind, "image");
+    let mut bad_step = msg32.clone();
+    bad_step.step = 4 * k.width - 4;
+    assert_eq!(node.on_depth(&bad_step).expect_err("step below width").kind, "image");
     // All-NaN and all-zero frames are valid frames with nothing in view.
     let nan = Image { data: f32::NAN.to_le_bytes().repeat((k.width * k.height) as usize), ..msg32.clone() };
     let none = node.on_depth(&nan).expect("NaN frame").clone();
     assert_eq!(none.min_index, -1);
     assert!(none.links.iter().all(|l| !l.valid));
+    let zero = Image { data: vec![0; msg16.data.len()], ..msg16.clone() };
+    assert_eq!(node.on_depth(&zero).expect("all-zero 16UC1 frame").min_index, -1);
+    assert!(node.markers().markers.iter().all(|mk| mk.action == Marker::DELETE), "nothing seen: markers deleted");
     let again = node.on_depth(&msg32).expect("good frame after bad ones").clone();
     assert!((again.links[again.min_index as usize].distance - want).abs() <= 1e-3);
+}
+
+#[test]
+fn joint_state_closest_to_the_frame_stamp_is_used() {
+    let model = model();
+    let (cam, k) = kitchen_camera();
+    let mut node = FdedNode::new(model.clone(), params()).expect("node");
+    node.on_camera_info(&k.to_camera_info(Time::default(), FRAME)).expect("camera info");
+    node.on_tf_static(&tf_static(&model.link_names()[0], &cam)).expect("tf_static");
+    let img = render(&model, &k, &cam, &Q, Point3::new(0.75, 0.0, 0.75), 0.08);
+    let want = reference(&model, &k, &cam, &Q, &img);
+    // The robot at Q at t = 2.0 s; elsewhere before and after. The frame at 2.0 s must be
+    // computed at Q, whatever arrived later.
+    let elsewhere = [1.0, -0.5, 0.3, -0.4, 0.2, 0.1, 0.0];
+    for (t, q) in [(1.9, &elsewhere), (2.0, &Q), (2.1, &elsewhere), (2.2, &elsewhere)] {
+        node.on_joint_state(&joint_state(&model, q, Time::from_secs_f64(t))).expect("joint state");
+    }
+    let got = node.on_depth(&img.to_image_msg(Time::from_secs_f64(2.0), FRAME, Encoding::F32Metres)).expect("frame").clone();
+    assert!(node.take_notice().is_none());
+    assert!((got.links[got.min_index as usize].distance - want).abs() <= 1e-3, "{} vs {want}", got.links[got.min_index as usize].distance);
+    // A frame far from every joint state: the newest is used, with a notice naming the topic.
+    node.on_depth(&img.to_image_msg(Time::from_secs_f64(9.0), FRAME, Encoding::F32Metres)).expect("frame");
+    let notice = node.take_notice().expect("old joint state noticed");
+    assert!(notice.message.contains("/joint_states"), "{}", notice.message);
+    // Time going back (a looped bag) restarts the history: the new state alone is used.
+    node.on_joint_state(&joint_state(&model, &Q, Time::from_secs_f64(0.5))).expect("joint state");
+    let got = node.on_depth(&img.to_image_msg(Time::from_secs_f64(0.5), FRAME, Encoding::F32Metres)).expect("frame").clone();
+    assert!(node.take_notice().is_none());
+    assert!((got.links[got.min_index as usize].distance - want).abs() <= 1e-3);
 }
 
 #[test]
@@ -215,6 +278,9 @@ fn over_dds_beside_lwr_sim() {
     let joints = client.subscription::<JointState>("/joint_states", &qos::reliable()).expect("sub");
     let tf = client.subscription::<TFMessage>("/tf_static", &qos::latched()).expect("sub");
     let distances = client.subscription::<LinkDistances>("/fded/distances", &qos::reliable()).expect("sub");
+    let markers = client.subscription::<MarkerArray>("/fded/markers", &qos::reliable()).expect("sub");
+    let mut marker_arrays = 0;
+    let mut marker_checked = 0;
 
     let mut cam = None;
     let mut q: Option<Vec<f64>> = None;
@@ -245,6 +311,23 @@ fn over_dds_beside_lwr_sim() {
             }
             received.push(m);
         }
+        while let Some(ma) = markers.take() {
+            marker_arrays += 1;
+            // Match with its result by stamp: the closest link's segment joins its points.
+            let stamp = ma.markers.first().map(|mk| mk.header.stamp);
+            if let Some(r) = received.iter().rev().find(|r| Some(r.header.stamp) == stamp)
+                && r.min_index >= 0
+            {
+                let l = &r.links[r.min_index as usize];
+                let seg = ma
+                    .markers
+                    .iter()
+                    .find(|mk| mk.ns == fded_distance::markers::NS_SEGMENT && mk.id == r.min_index)
+                    .expect("segment marker of the closest link");
+                assert_eq!(seg.points, vec![l.robot_point, l.obstacle_point]);
+                marker_checked += 1;
+            }
+        }
         // Once results flow, bad frames: an unknown encoding, a wrong size, truncated data.
         if received.len() >= 5 && bad_sent_at.is_none() {
             let good = seen.values().next().cloned().expect("an image was seen");
@@ -261,7 +344,8 @@ fn over_dds_beside_lwr_sim() {
         std::thread::sleep(Duration::from_millis(5));
     }
     stop.store(true, Ordering::SeqCst);
-    handle.join().expect("node thread").expect("node ran cleanly");
+    let summary = handle.join().expect("node thread").expect("node ran cleanly");
+    assert!(summary.frames >= received.len() as u64, "{summary:?} but {} results received", received.len());
 
     let (cam, q, k) = (cam.expect("lwr_sim's /tf_static camera"), q.expect("joint states"), k.expect("camera info"));
     assert!(received.len() >= 15, "only {} results in 60 s", received.len());
@@ -290,11 +374,13 @@ fn over_dds_beside_lwr_sim() {
         checked += 1;
     }
     assert!(checked >= 5, "only {checked} results could be matched to their frames");
+    assert!(marker_arrays >= 10, "only {marker_arrays} marker arrays on /fded/markers");
+    assert!(marker_checked >= 1, "no marker array matched a result with an obstacle in view");
     let mut times: Vec<f64> = received.iter().map(|m| m.processing_time).collect();
     times.sort_by(f64::total_cmp);
     let min = &received[received.len() - 1];
     eprintln!(
-        "over DDS beside lwr_sim: {} results ({after_bad} after 3 bad frames), {checked} checked against the library, backend {backend}, processing median {:.2} ms, max {:.2} ms; last global minimum {}",
+        "over DDS beside lwr_sim: {summary:?}; {} results ({after_bad} after 3 bad frames), {checked} checked against the library, backend {backend}, processing median {:.2} ms, max {:.2} ms; last global minimum {}",
         received.len(),
         times[times.len() / 2] * 1e3,
         times[times.len() - 1] * 1e3,

@@ -1,0 +1,378 @@
+//! [`FdedNode`]: the node's state and its per-message handlers, with no I/O.
+
+use std::collections::{HashMap, VecDeque};
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use cowork_depth::{DepthImage, Intrinsics};
+use cowork_fded::gpu::{BackendRequest, FdedEngine};
+use cowork_fded::{FdedOutput, Frame};
+use cowork_msgs::geometry_msgs::{Point, TransformStamped, Vector3};
+use cowork_msgs::msg::{LinkDistance, LinkDistances};
+use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
+use cowork_msgs::std_msgs::Header;
+use cowork_msgs::tf2_msgs::TFMessage;
+use cowork_msgs::visualization_msgs::MarkerArray;
+use cowork_robot::{DOF, RobotModel};
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+
+use crate::markers::fill_markers;
+use crate::params::Params;
+use crate::{TOPIC_CAMERA_INFO, TOPIC_DEPTH, TOPIC_JOINT_STATES, TOPIC_TF_STATIC};
+
+/// Joint states remembered for matching frames by stamp (2 s of a 1 kHz publisher).
+const JOINT_HISTORY: usize = 2048;
+
+/// Why a frame (or a message) was not used. The text is the warning logged, naming the topic
+/// and the reason; `kind` is the key of the rate limiter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Skip {
+    /// Short kind, the key of the rate limiter.
+    pub kind: &'static str,
+    /// The message.
+    pub message: String,
+}
+
+fn skip(kind: &'static str, message: String) -> Skip {
+    Skip { kind, message }
+}
+
+/// Logs each kind of warning at most once per period, counting the ones it held back.
+#[derive(Debug)]
+pub struct RateLimitedWarnings {
+    period: Duration,
+    last: HashMap<&'static str, (Instant, u64)>,
+}
+
+impl RateLimitedWarnings {
+    /// A limiter with `period_s` seconds between two warnings of the same kind.
+    pub fn new(period_s: f64) -> Self {
+        Self { period: Duration::from_secs_f64(period_s), last: HashMap::new() }
+    }
+
+    /// Logs `skip` unless one of its kind was logged within the period; returns whether it
+    /// was logged.
+    pub fn warn(&mut self, skip: &Skip) -> bool {
+        let now = Instant::now();
+        match self.last.get_mut(skip.kind) {
+            Some((at, held)) if now.duration_since(*at) < self.period => {
+                *held += 1;
+                false
+            }
+            Some((at, held)) => {
+                tracing::warn!("{} ({} more like it since the last warning)", skip.message, held);
+                *at = now;
+                *held = 0;
+                true
+            }
+            None => {
+                tracing::warn!("{}", skip.message);
+                self.last.insert(skip.kind, (now, 0));
+                true
+            }
+        }
+    }
+}
+
+/// The node's state: camera intrinsics and the fDED engine (built when the first camera info
+/// arrives, rebuilt when it changes), recent joint states, camera poses from `/tf_static`, and
+/// the reused output buffers and messages.
+#[derive(Debug)]
+pub struct FdedNode {
+    params: Params,
+    request: BackendRequest,
+    model: RobotModel,
+    base_frame: String,
+    link_names: Vec<String>,
+    engine: Option<(Intrinsics, FdedEngine)>,
+    out: Option<FdedOutput>,
+    depth: DepthImage,
+    /// (stamp s, joint positions rad), stamps non-decreasing.
+    joints: VecDeque<(f64, [f64; DOF])>,
+    camera_from_tf: HashMap<String, Isometry3<f64>>,
+    camera_default: Isometry3<f64>,
+    msg: LinkDistances,
+    markers: MarkerArray,
+    notice: Option<Skip>,
+    /// Processing times (s) since the last report.
+    times: Vec<f64>,
+    frames: u64,
+}
+
+impl FdedNode {
+    /// The node for `model` with `params` (validated here).
+    pub fn new(model: RobotModel, params: Params) -> Result<Self> {
+        params.validate("fded_distance parameters")?;
+        let request = params.backend_request("fded_distance parameters")?;
+        let link_names = model.link_names().to_vec();
+        let Some(base_frame) = link_names.first().cloned() else {
+            anyhow::bail!("the robot model has no links");
+        };
+        let camera_default = params.camera_pose.isometry();
+        Ok(Self {
+            request,
+            base_frame,
+            msg: LinkDistances {
+                links: link_names.iter().map(|n| LinkDistance { link_name: n.clone(), ..Default::default() }).collect(),
+                min_index: -1,
+                ..Default::default()
+            },
+            markers: MarkerArray::default(),
+            link_names,
+            model,
+            engine: None,
+            out: None,
+            depth: DepthImage::default(),
+            joints: VecDeque::with_capacity(JOINT_HISTORY),
+            camera_from_tf: HashMap::new(),
+            camera_default,
+            notice: None,
+            times: Vec::with_capacity(1024),
+            frames: 0,
+            params,
+        })
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// The backend request the engine is built with.
+    pub fn request(&self) -> BackendRequest {
+        self.request
+    }
+
+    /// The backend in use (`"wgpu"`, `"cpu"`), `None` before the first camera info.
+    pub fn backend(&self) -> Option<&'static str> {
+        self.engine.as_ref().map(|(_, e)| e.backend_name())
+    }
+
+    /// The robot base frame, in which results are expressed.
+    pub fn base_frame(&self) -> &str {
+        &self.base_frame
+    }
+
+    /// Camera info: (re)builds the engine when the intrinsics change.
+    pub fn on_camera_info(&mut self, msg: &CameraInfo) -> Result<(), Skip> {
+        let k = Intrinsics::from_camera_info(msg)
+            .map_err(|e| skip("camera_info", format!("{TOPIC_CAMERA_INFO}: message ignored: {e}")))?;
+        if self.engine.as_ref().is_some_and(|(old, _)| *old == k) {
+            return Ok(());
+        }
+        let engine = FdedEngine::new(&self.model, &k, self.params.fded.clone(), self.request).map_err(|e| {
+            skip("engine", format!("{TOPIC_CAMERA_INFO}: cannot build fDED for a {}x{} camera: {e}", k.width, k.height))
+        })?;
+        tracing::info!(
+            "fDED ready: {}x{} px, backend {}{}",
+            k.width,
+            k.height,
+            engine.backend_name(),
+            engine.adapter_name().map(|a| format!(" ({a})")).unwrap_or_default()
+        );
+        self.out = Some(engine.new_output());
+        self.engine = Some((k, engine));
+        Ok(())
+    }
+
+    /// Joint state: the positions of the model's joints, by name, remembered with the stamp.
+    /// Incomplete or non-finite states are rejected (the earlier ones stay in use).
+    pub fn on_joint_state(&mut self, msg: &JointState) -> Result<(), Skip> {
+        if msg.name.len() != msg.position.len() {
+            return Err(skip(
+                "joint_state",
+                format!("{TOPIC_JOINT_STATES}: message ignored: {} names but {} positions", msg.name.len(), msg.position.len()),
+            ));
+        }
+        let mut q = [f64::NAN; DOF];
+        for (name, &p) in msg.name.iter().zip(&msg.position) {
+            if let Some(i) = self.model.joint_index(name) {
+                q[i] = p;
+            }
+        }
+        if let Some(i) = q.iter().position(|v| !v.is_finite()) {
+            return Err(skip(
+                "joint_state",
+                format!("{TOPIC_JOINT_STATES}: message ignored: joint {} missing or not finite", self.model.joint_names()[i]),
+            ));
+        }
+        let stamp = msg.header.stamp.to_secs_f64();
+        // Time went back (a bag looped, a simulator restarted): the history no longer applies.
+        if self.joints.back().is_some_and(|(s, _)| stamp < *s) {
+            self.joints.clear();
+        }
+        if self.joints.len() == JOINT_HISTORY {
+            self.joints.pop_front();
+        }
+        self.joints.push_back((stamp, q));
+        Ok(())
+    }
+
+    /// `/tf_static`: remembers every transform from the base frame (camera poses by child frame).
+    pub fn on_tf_static(&mut self, msg: &TFMessage) -> Result<(), Skip> {
+        let mut bad = None;
+        for t in &msg.transforms {
+            if t.header.frame_id.trim_start_matches('/') != self.base_frame {
+                continue;
+            }
+            match isometry(t) {
+                Some(pose) => {
+                    self.camera_from_tf.insert(t.child_frame_id.trim_start_matches('/').to_owned(), pose);
+                }
+                None => bad = Some(t.child_frame_id.clone()),
+            }
+        }
+        match bad {
+            Some(child) => Err(skip(
+                "tf_static",
+                format!("{TOPIC_TF_STATIC}: transform {} -> {child} ignored: not a finite rigid transform", self.base_frame),
+            )),
+            None => Ok(()),
+        }
+    }
+
+    /// The joint state for a frame at `stamp` (s): the one closest in time; when that is
+    /// further than `max_joint_state_age_s`, the newest, with a notice.
+    fn joints_for(&mut self, stamp: f64) -> Option<[f64; DOF]> {
+        let newest = *self.joints.back()?;
+        let after = self.joints.partition_point(|(s, _)| *s <= stamp);
+        let candidates = [after.checked_sub(1), Some(after)];
+        let closest = candidates
+            .into_iter()
+            .flatten()
+            .filter_map(|i| self.joints.get(i))
+            .min_by(|a, b| (a.0 - stamp).abs().total_cmp(&(b.0 - stamp).abs()))
+            .copied()
+            .unwrap_or(newest);
+        let gap = (closest.0 - stamp).abs();
+        if gap <= self.params.max_joint_state_age_s {
+            return Some(closest.1);
+        }
+        self.notice = Some(skip(
+            "joint_state_age",
+            format!(
+                "{TOPIC_JOINT_STATES}: no joint state within {:.3} s of the depth frame at {stamp:.3} s (closest {gap:.3} s away); using the newest",
+                self.params.max_joint_state_age_s
+            ),
+        ));
+        Some(newest.1)
+    }
+
+    /// Processes one depth image; `Ok(msg)` is the message to publish (the markers for it are
+    /// in [`markers`](Self::markers)). A frame that cannot be used is skipped with the reason.
+    pub fn on_depth(&mut self, image: &Image) -> Result<&LinkDistances, Skip> {
+        let Some((k, _)) = self.engine.as_ref() else {
+            return Err(skip("no_camera_info", format!("{TOPIC_DEPTH}: frame skipped: no valid {TOPIC_CAMERA_INFO} yet")));
+        };
+        if image.width != k.width || image.height != k.height {
+            return Err(skip(
+                "size",
+                format!(
+                    "{TOPIC_DEPTH}: frame skipped: image is {}x{} but {TOPIC_CAMERA_INFO} says {}x{}",
+                    image.width, image.height, k.width, k.height
+                ),
+            ));
+        }
+        self.depth
+            .read_image_msg(image)
+            .map_err(|e| skip("image", format!("{TOPIC_DEPTH}: frame skipped: {e}")))?;
+        let stamp = image.header.stamp.to_secs_f64();
+        let Some(q) = self.joints_for(stamp) else {
+            return Err(skip("no_joint_state", format!("{TOPIC_DEPTH}: frame skipped: no valid {TOPIC_JOINT_STATES} yet")));
+        };
+        let frame_id = image.header.frame_id.trim_start_matches('/');
+        let camera = self.camera_from_tf.get(frame_id).unwrap_or(&self.camera_default);
+        let Some((_, engine)) = self.engine.as_mut() else {
+            unreachable!("checked above");
+        };
+        let out = self.out.get_or_insert_with(|| engine.new_output());
+        let frame = Frame { stamp, depth: &self.depth, camera_pose: camera, joints: Some(&q) };
+        let t0 = Instant::now();
+        engine
+            .process(&frame, out)
+            .map_err(|e| skip("fded", format!("{TOPIC_DEPTH}: frame skipped: fDED rejected it: {e}")))?;
+        let dt = t0.elapsed().as_secs_f64();
+        self.times.push(dt);
+        self.frames += 1;
+        let msg = &mut self.msg;
+        msg.header = Header { stamp: image.header.stamp, frame_id: self.base_frame.clone() };
+        msg.processing_time = dt;
+        if msg.backend != engine.backend_name() {
+            msg.backend = engine.backend_name().to_owned();
+        }
+        msg.links.resize_with(out.links.len(), LinkDistance::default);
+        for (m, l) in msg.links.iter_mut().zip(&out.links) {
+            if m.link_name.is_empty() {
+                m.link_name = self.link_names.get(l.link).cloned().unwrap_or_default();
+            }
+            m.valid = l.valid;
+            if l.valid {
+                m.distance = l.distance;
+                m.robot_point = point(&l.robot_point.coords);
+                m.obstacle_point = point(&l.obstacle_point.coords);
+                m.normal = vector(&l.normal);
+                m.obstacle_velocity = vector(&l.obstacle_velocity);
+            } else {
+                m.distance = f64::INFINITY;
+                m.robot_point = Point::default();
+                m.obstacle_point = Point::default();
+                m.normal = Vector3::default();
+                m.obstacle_velocity = Vector3::default();
+            }
+        }
+        msg.min_index = out.closest.and_then(|i| i32::try_from(i).ok()).unwrap_or(-1);
+        if self.params.publish_markers {
+            fill_markers(&mut self.markers, &msg.header, out, self.params.normal_arrow_length_m);
+        }
+        Ok(&self.msg)
+    }
+
+    /// The markers of the last processed frame (empty when `publish_markers` is off).
+    pub fn markers(&self) -> &MarkerArray {
+        &self.markers
+    }
+
+    /// A warning about the last frame that did not stop it (e.g. an old joint state).
+    pub fn take_notice(&mut self) -> Option<Skip> {
+        self.notice.take()
+    }
+
+    /// Median and maximum processing time (s) since the last call, and the frame count; clears.
+    pub fn take_timing(&mut self) -> Option<(f64, f64, usize)> {
+        if self.times.is_empty() {
+            return None;
+        }
+        self.times.sort_by(f64::total_cmp);
+        let n = self.times.len();
+        let r = (self.times[n / 2], self.times[n - 1], n);
+        self.times.clear();
+        Some(r)
+    }
+
+    /// Frames processed so far.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+}
+
+fn point(v: &nalgebra::Vector3<f64>) -> Point {
+    Point { x: v.x, y: v.y, z: v.z }
+}
+
+fn vector(v: &nalgebra::Vector3<f64>) -> Vector3 {
+    Vector3 { x: v.x, y: v.y, z: v.z }
+}
+
+/// A `TransformStamped` as an isometry, `None` when not finite or the quaternion is ~0.
+pub fn isometry(t: &TransformStamped) -> Option<Isometry3<f64>> {
+    let (p, r) = (&t.transform.translation, &t.transform.rotation);
+    let all = [p.x, p.y, p.z, r.x, r.y, r.z, r.w];
+    if !all.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let q = Quaternion::new(r.w, r.x, r.y, r.z);
+    if q.norm() < 1e-6 {
+        return None;
+    }
+    Some(Isometry3::from_parts(Translation3::new(p.x, p.y, p.z), UnitQuaternion::from_quaternion(q)))
+}

@@ -1,0 +1,105 @@
+//! The node's parameters: the `fded_distance: ros__parameters:` block of its YAML file.
+
+use anyhow::{Result, bail};
+use cowork_fded::FdedParams;
+use cowork_fded::gpu::BackendRequest;
+use cowork_sim::Pose;
+use serde::{Deserialize, Serialize};
+
+/// The `fded_distance: ros__parameters:` block.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    /// Robot description (URDF with per-link meshes).
+    pub urdf: String,
+    /// `auto`, `cpu` or `gpu` (`COWORK_FDED_BACKEND` overrides it).
+    pub backend: String,
+    /// Take time from `/clock` (only the log uses time; message stamps are copied).
+    pub use_sim_time: bool,
+    /// Camera optical frame pose in the base frame, used until `/tf_static` gives one.
+    pub camera_pose: Pose,
+    /// The joint state used for a frame is the one whose stamp is closest to the frame's; when
+    /// even that one is further away than this, the newest is used with a warning, s.
+    pub max_joint_state_age_s: f64,
+    /// Period of the processing-time log line, s (wall clock).
+    pub report_period_s: f64,
+    /// Identical warnings are logged at most once per this period, s (wall clock).
+    pub warning_period_s: f64,
+    /// Publish `visualization_msgs/MarkerArray` on `/fded/markers` with every result.
+    pub publish_markers: bool,
+    /// Length of the obstacle-normal arrows on `/fded/markers`, m.
+    pub normal_arrow_length_m: f64,
+    /// fDED parameters (thesis Table 5.1 defaults).
+    pub fded: FdedParams,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self {
+            urdf: "config/robot/lwr4plus.urdf".into(),
+            backend: "auto".into(),
+            use_sim_time: false,
+            camera_pose: Pose {
+                position: [1.9, 0.0, 0.9],
+                look_at: Some([0.45, 0.0, 0.2]),
+                ..Pose::default()
+            },
+            max_joint_state_age_s: 0.1,
+            report_period_s: 5.0,
+            warning_period_s: 5.0,
+            publish_markers: true,
+            normal_arrow_length_m: 0.1,
+            fded: FdedParams::default(),
+        }
+    }
+}
+
+impl Params {
+    /// Rejects NaN and out-of-range values; `place` names the parameter file.
+    pub fn validate(&self, place: &str) -> Result<()> {
+        self.backend_request(place)?;
+        for (name, v) in [
+            ("max_joint_state_age_s", self.max_joint_state_age_s),
+            ("report_period_s", self.report_period_s),
+            ("warning_period_s", self.warning_period_s),
+            ("normal_arrow_length_m", self.normal_arrow_length_m),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{place}: `{name}` = {v} must be a positive number");
+            }
+        }
+        let p = &self.camera_pose;
+        let finite = p
+            .position
+            .iter()
+            .chain(p.rpy.iter().flatten())
+            .chain(p.quaternion_xyzw.iter().flatten())
+            .chain(p.look_at.iter().flatten())
+            .all(|v| v.is_finite());
+        if !finite {
+            bail!("{place}: `camera_pose` has a non-finite value");
+        }
+        if let Some(t) = p.look_at
+            && (0..3).all(|i| (t[i] - p.position[i]).abs() < 1e-9)
+        {
+            bail!("{place}: `camera_pose.look_at` equals its position: no viewing direction");
+        }
+        if let Some(q) = p.quaternion_xyzw
+            && q.iter().map(|v| v * v).sum::<f64>() < 1e-12
+        {
+            bail!("{place}: `camera_pose.quaternion_xyzw` is zero");
+        }
+        if let Err(e) = self.fded.validate() {
+            bail!("{place}: `fded`: {e}");
+        }
+        Ok(())
+    }
+
+    /// `backend` as a request.
+    pub fn backend_request(&self, place: &str) -> Result<BackendRequest> {
+        match BackendRequest::parse(&self.backend) {
+            Ok(r) => Ok(r),
+            Err(_) => bail!("{place}: `backend` = {:?} must be auto, cpu or gpu", self.backend),
+        }
+    }
+}
