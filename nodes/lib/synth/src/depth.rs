@@ -1,8 +1,8 @@
 //! The depth camera of a scenario bag: `/camera/depth/image_raw` (16UC1 mm) and
 //! `/camera/depth/camera_info` at 30 Hz, rendered by [`cowork_depth::DepthRenderer`] from the
-//! simulator's joints and objects and the people's capsule bodies.
+//! simulator's joints and objects, the people's capsule bodies and the floor they stand on.
 
-use cowork_depth::{Capsule, DepthImage, DepthRenderer, Encoding, Intrinsics, KinectNoise};
+use cowork_depth::{Capsule, DepthImage, DepthRenderer, Encoding, Floor, Intrinsics, KinectNoise};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::sensor_msgs::{CameraInfo, Image};
 use cowork_sim::Simulator;
@@ -30,6 +30,7 @@ impl DepthRig {
     pub fn new(sim: &Simulator, seed: u64, noise: bool) -> Result<Self> {
         let mut renderer = DepthRenderer::new(sim.model(), sim.scene())?;
         renderer.set_noise(noise.then(|| KinectNoise::with_seed(seed)))?;
+        renderer.set_floor(Some(Floor::at(cowork_people::DEFAULT_FLOOR_Z)))?;
         let c = &sim.scene().camera;
         let intrinsics = Intrinsics { width: c.width, height: c.height, fx: c.fx, fy: c.fy, cx: c.cx, cy: c.cy };
         Ok(Self {
