@@ -104,6 +104,11 @@ impl Person {
         self.right_hand.at(t)
     }
 
+    /// Right shoulder position at `t` (m).
+    pub fn right_shoulder(&self, t: f64) -> Point3<f64> {
+        self.joints(t)[3]
+    }
+
     /// Pelvis position at `t` (m).
     pub fn pelvis_at(&self, t: f64) -> Point3<f64> {
         let p = self.pelvis.at(t);

@@ -53,6 +53,10 @@ pub trait World {
     /// Obstacles at time `t` (s), appended to the cleared `out`.
     fn obstacles(&mut self, t: f64, out: &mut Vec<Obstacle>);
 
+    /// Sees the robot at `t` (s) before [`World::obstacles`] is asked: TCP position (m, base
+    /// frame). Lets a scripted person react to where the gripper is. Default: ignored.
+    fn observe(&mut self, _t: f64, _tcp: &Point3<f64>) {}
+
     /// The human state the controller gets at `t`, given the current smallest robot–person
     /// distance (m, ∞ without a person). Default: nobody there.
     fn human(&mut self, _t: f64, _human_distance: f64) -> HumanState {
@@ -269,6 +273,7 @@ pub fn run(model: &RobotModel, mut setup: Setup, mut csv: Option<(&mut dyn Write
     for k in 0..steps {
         let t = k as f64 * dt;
         obstacles.clear();
+        setup.world.observe(t, &Point3::from(sim.link_poses().get(model.tip_link()).translation.vector));
         setup.world.obstacles(t, &mut obstacles);
         let (dist, closest) = geometry.distances(sim.link_poses(), &obstacles, t);
         if k % every == 0 {

@@ -266,9 +266,75 @@ struct PersonWorld {
     /// The person is tracked while the pelvis is closer than this to the robot base (m).
     tracking_range: f64,
     interacting: bool,
+    /// A reach for the gripper, triggered by where the robot is.
+    reach: Option<ReachForGripper>,
+}
+
+/// The person, standing at the table, reaches with the right hand for the gripper the first
+/// time it comes within `range` of the right shoulder: the hand sweeps to where the TCP was at
+/// that instant in `reach_s`, stays `hold_s`, and goes back to rest in `back_s`; then the person
+/// leaves (pelvis back to `far_x` in `walk_s`). Without a trigger by `give_up` the person
+/// leaves without reaching.
+#[derive(Debug, Clone)]
+struct ReachForGripper {
+    /// Earliest trigger time (s): the person has arrived.
+    from: f64,
+    /// Latest trigger time (s).
+    give_up: f64,
+    range: f64,
+    reach_s: f64,
+    hold_s: f64,
+    back_s: f64,
+    walk_s: f64,
+    far_x: f64,
+    /// Trigger time and target, once triggered.
+    triggered: Option<(f64, Point3<f64>)>,
+}
+
+impl PersonWorld {
+    /// Re-scripts the person from `t` on: reach for `target` (or not, when `None`), then leave.
+    fn script_from(&mut self, t: f64, target: Option<Point3<f64>>) {
+        let Some(r) = &self.reach else { return };
+        let pelvis = self.person.pelvis.at(t);
+        let hand = self.person.hand(t);
+        let rest = Person::rest_hand(pelvis.x, pelvis.y, self.person.pelvis_z);
+        let mut hand_keys = vec![(t, hand)];
+        let mut t_back = t;
+        if let Some(target) = target {
+            hand_keys.push((t + r.reach_s, target));
+            hand_keys.push((t + r.reach_s + r.hold_s, target));
+            t_back = t + r.reach_s + r.hold_s + r.back_s;
+            hand_keys.push((t_back, rest));
+        }
+        let t_out = t_back + 0.5 + r.walk_s;
+        let far = Point3::new(r.far_x, pelvis.y, 0.0);
+        hand_keys.push((t_back + 0.5, rest));
+        hand_keys.push((t_out, Person::rest_hand(far.x, far.y, self.person.pelvis_z)));
+        self.person.right_hand = Track(hand_keys);
+        self.person.pelvis = Track(vec![(t, pelvis), (t_back + 0.5, pelvis), (t_out, far)]);
+    }
 }
 
 impl World for PersonWorld {
+    fn observe(&mut self, t: f64, tcp: &Point3<f64>) {
+        let Some(r) = &self.reach else { return };
+        if r.triggered.is_some() || t < r.from {
+            return;
+        }
+        let shoulder = self.person.right_shoulder(t);
+        if (tcp - shoulder).norm() <= r.range {
+            self.script_from(t, Some(*tcp));
+            if let Some(r) = &mut self.reach {
+                r.triggered = Some((t, *tcp));
+            }
+        } else if t >= r.give_up {
+            self.script_from(t, None);
+            if let Some(r) = &mut self.reach {
+                r.triggered = Some((t, Point3::new(f64::NAN, f64::NAN, f64::NAN)));
+            }
+        }
+    }
+
     fn obstacles(&mut self, t: f64, out: &mut Vec<Obstacle>) {
         self.person.obstacles(t, out);
     }
@@ -318,21 +384,33 @@ fn hand_hit(model: &RobotModel, o: &Options, controller: ControllerConfig) -> Re
     };
     Ok(Setup {
         goals: vec![Goal::linear(g.coords, gain)],
-        world: Box::new(PersonWorld { person, interaction_distance: 0.0, tracking_range: 0.0, interacting: false }),
-        duration_s: t0 + sweep + 2.0 + 3.0,
+        world: Box::new(PersonWorld { person, interaction_distance: 0.0, tracking_range: 0.0, interacting: false, reach: None }),
+        // 6 s after the withdrawal: the robot is back (Fig. 5.7: ≈ 3 s; here ≈ 4 s, see README).
+        duration_s: t0 + sweep + 2.0 + 6.0,
         settle_s: None,
         ..base("hand-hit", controller)
     })
 }
 
 /// Sec. 5.1.3: stack two blocks (four constant-speed motions ẋ = α_h (g − x)/‖g − x‖, grasp,
-/// place, grasp, place on top) while a person walks up to the table, reaches into the
-/// workspace between the pick and place areas, and leaves. α_h = 0.1 m/s while the person is
-/// within `interaction-distance` of the robot, 0.3 m/s otherwise.
+/// place, grasp, place on top) while a person walks up to the table, reaches into the robot's
+/// path and leaves. α_h = 0.1 m/s while the person is within `interaction-distance` of the
+/// robot, 0.3 m/s otherwise.
+///
+/// The reach (default): the first time the gripper comes within `reach-range` of the person's
+/// right shoulder, the hand sweeps in `reach-time` to where the TCP was at that instant (so it
+/// arrives on the arm's path, Fig. 5.13(b)), stays `hold`, withdraws in 1.5 s, and the person
+/// leaves. `--reach-to x,y,z` replaces it with a reach to a fixed point at a fixed time (the
+/// hand then stays ≥ 25 cm from the arm: the robot yields early).
 fn stacking_human(o: &Options, controller: ControllerConfig) -> Result<Setup> {
     let interaction_distance = o.number("interaction-distance", 0.8, POSITIVE)?;
+    let fixed_reach = o.raw("reach-to").is_some();
     let reach_to = o.vector("reach-to", Vector3::new(0.72, 0.05, 0.22))?;
     let enter = o.number("enter-at", 3.0, NON_NEGATIVE)?;
+    let hold = o.number("hold", if fixed_reach { 2.5 } else { 1.5 }, POSITIVE)?;
+    let reach = o.number("reach-time", if fixed_reach { 1.5 } else { 0.6 }, POSITIVE)?;
+    let reach_range = o.number("reach-range", 0.85, POSITIVE)?;
+    let near_x = o.number("stand-x", 1.0, (|x| x >= 0.9, "must be ≥ 0.9 m (the table edge is at 1.15 m)"))?;
     let speed = controller.scaling.far_speed;
     let cs = |p: Vector3<f64>, grip: bool| Goal {
         position: p,
@@ -357,35 +435,57 @@ fn stacking_human(o: &Options, controller: ControllerConfig) -> Result<Setup> {
         }))
         .map_err(|e| Error::Scene { message: e.to_string() })
     };
-    let (far_x, near_x, py) = (2.6, 1.15, 0.0);
-    let (walk, reach, hold, back) = (2.0, 1.5, 2.5, 1.5);
+    let (far_x, py) = (2.6, 0.0);
+    let (walk, back) = (2.0, 1.5);
     let t_in = enter + walk;
     let t_reach = t_in + 0.5 + reach;
     let t_back = t_reach + hold + back;
     let t_out = t_back + 0.5 + walk;
     let rest = |x: f64| Person::rest_hand(x, py, PELVIS_Z);
-    let person = Person {
-        pelvis: Track(vec![
-            key(enter, far_x, py, 0.0),
-            key(t_in, near_x, py, 0.0),
-            key(t_back + 0.5, near_x, py, 0.0),
-            key(t_out, far_x, py, 0.0),
-        ]),
-        right_hand: Track(vec![
-            (enter, rest(far_x)),
-            (t_in + 0.5, rest(near_x)),
-            (t_reach, Point3::from(reach_to)),
-            (t_reach + hold, Point3::from(reach_to)),
-            (t_back, rest(near_x)),
-            (t_back + 0.5, rest(near_x)),
-            (t_out, rest(far_x)),
-        ]),
-        pelvis_z: PELVIS_Z,
+    let (person, robot_reach) = if fixed_reach {
+        let person = Person {
+            pelvis: Track(vec![
+                key(enter, far_x, py, 0.0),
+                key(t_in, near_x, py, 0.0),
+                key(t_back + 0.5, near_x, py, 0.0),
+                key(t_out, far_x, py, 0.0),
+            ]),
+            right_hand: Track(vec![
+                (enter, rest(far_x)),
+                (t_in + 0.5, rest(near_x)),
+                (t_reach, Point3::from(reach_to)),
+                (t_reach + hold, Point3::from(reach_to)),
+                (t_back, rest(near_x)),
+                (t_back + 0.5, rest(near_x)),
+                (t_out, rest(far_x)),
+            ]),
+            pelvis_z: PELVIS_Z,
+        };
+        (person, None)
+    } else {
+        // Walk in and wait at the table; the rest is scripted when the reach triggers.
+        let person = Person {
+            pelvis: Track(vec![key(enter, far_x, py, 0.0), key(t_in, near_x, py, 0.0)]),
+            right_hand: Track(vec![(enter, rest(far_x)), (t_in + 0.5, rest(near_x))]),
+            pelvis_z: PELVIS_Z,
+        };
+        let r = ReachForGripper {
+            from: t_in + 0.5,
+            give_up: t_in + 30.0,
+            range: reach_range,
+            reach_s: reach,
+            hold_s: hold,
+            back_s: back,
+            walk_s: walk,
+            far_x,
+            triggered: None,
+        };
+        (person, Some(r))
     };
     Ok(Setup {
         start: Start::Joints(ready()),
         goals,
-        world: Box::new(PersonWorld { person, interaction_distance, tracking_range: 2.4, interacting: false }),
+        world: Box::new(PersonWorld { person, interaction_distance, tracking_range: 2.4, interacting: false, reach: robot_reach }),
         objects: vec![block("block1", 0.50, 0.40)?, block("block2", 0.60, 0.40)?],
         duration_s: 90.0,
         settle_s: Some(0.5),
@@ -409,10 +509,32 @@ pub struct SweepPoint {
 /// Runs `moving-sphere-hold` (or `-reach`) for each speed along +y and judges it: the hand is
 /// never touched and the final goal error is at most `tolerance` (m).
 pub fn sweep_moving_sphere(model: &RobotModel, reach: bool, speeds: &[f64], tolerance: f64) -> Result<Vec<SweepPoint>> {
+    sweep_moving_sphere_with(model, reach, speeds, tolerance, &[])
+}
+
+/// [`sweep_moving_sphere`] with further scenario options (`--obstacle-start`, `--radius`, …;
+/// not `obstacle-velocity`, which the sweep sets) applied to every run.
+pub fn sweep_moving_sphere_with(
+    model: &RobotModel,
+    reach: bool,
+    speeds: &[f64],
+    tolerance: f64,
+    extra: &[(String, String)],
+) -> Result<Vec<SweepPoint>> {
     let name = if reach { "moving-sphere-reach" } else { "moving-sphere-hold" };
+    if let Some((k, v)) = extra.iter().find(|(k, _)| k == "obstacle-velocity") {
+        return Err(Error::BadOption {
+            scenario: name.into(),
+            key: k.clone(),
+            value: v.clone(),
+            reason: "set by the sweep (speeds along +y)".into(),
+        });
+    }
     let mut out = Vec::new();
     for &v in speeds {
-        let opts = Options::new(name, [("obstacle-velocity", format!("0,{v},0"))]);
+        let mut pairs = vec![("obstacle-velocity".to_owned(), format!("0,{v},0"))];
+        pairs.extend(extra.iter().cloned());
+        let opts = Options::new(name, pairs);
         let summary = crate::run(model, build(model, name, &opts)?, None)?;
         let ok = summary.collisions == 0 && summary.final_goal_error_m <= tolerance;
         out.push(SweepPoint { speed_m_s: v, ok, summary });

@@ -57,9 +57,21 @@ fn moving_sphere_is_avoided_and_goal_regained_up_to_1_4_m_s() {
 }
 
 #[test]
+fn hand_hit_is_avoided_and_the_goal_regained() {
+    let s = scenario("hand-hit", &[]);
+    assert_eq!(s.collisions, 0, "{s:?}");
+    // The hand swept onto where the TCP was: the avoidance was exercised.
+    assert!(s.min_distance_m > 0.0 && s.min_distance_m < 0.2, "{s:?}");
+    assert!(s.final_goal_error_m <= 0.005, "{s:?}");
+    assert!(s.time_to_goal_s.is_some(), "{s:?}");
+}
+
+#[test]
 fn stacking_human_places_four_times_keeping_7_cm() {
     let s = scenario("stacking-human", &[]);
     assert_eq!(s.goals_reached, 4, "{s:?}");
+    // The hand reached onto the arm's path: the 7 cm criterion is tested, not trivially met.
+    assert!(s.min_distance_m < 0.15, "the person never came close: {s:?}");
     assert!(s.min_distance_m >= 0.07, "min distance {} m: {s:?}", s.min_distance_m);
     assert_eq!(s.collisions, 0);
     assert_eq!(s.speeds_m_s, vec![0.1, 0.3], "speed switching: {s:?}");
