@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use cowork_robot::RobotModel;
-use cowork_scenario::{NAMES, Options, build, run as run_scenario, scenarios::sweep_moving_sphere};
+use cowork_scenario::{NAMES, Options, build, run as run_scenario, scenarios::sweep_moving_sphere_with};
 
 /// Arguments of `cowork scenario`.
 #[derive(Debug, clap::Args)]
@@ -15,9 +15,10 @@ hand-hit, stacking-human.\n\
 Options (per scenario; unknown ones are an error): --duration S, --distance-rate HZ, --gain K; \
 moving-sphere-*: --obstacle-velocity vx,vy,vz  --obstacle-start x,y,z  --radius R  --lead S; \
 three-obstacles: --gap M; hand-hit: --sweep-time S; stacking-human: --interaction-distance M  \
---reach-to x,y,z  --enter-at S  --far-speed V  --interaction-speed V.\n\
+--enter-at S  --stand-x M  --reach-range M  --reach-time S  --hold S  --reach-to x,y,z (fixed reach)  \
+--far-speed V  --interaction-speed V.\n\
 Also: --csv OUT (trajectory), --csv-every N (rows every N steps, default 10), \
---sweep FROM:TO:STEP (moving-sphere-*: obstacle speeds along +y; prints the first failing speed).")]
+--sweep FROM:TO:STEP (moving-sphere-*: obstacle speeds along +y, with the other options; prints the first failing speed).")]
 pub struct ScenarioArgs {
     /// Robot description.
     #[arg(long, default_value = "config/robot/lwr4plus.urdf")]
@@ -61,9 +62,6 @@ pub fn run(args: ScenarioArgs) -> Result<()> {
             "moving-sphere-reach" => true,
             other => bail!("--sweep is for moving-sphere-hold / moving-sphere-reach, not {other}"),
         };
-        if !pairs.is_empty() {
-            bail!("--sweep takes no other scenario options (got {:?})", pairs);
-        }
         let parts: Vec<f64> = spec.split(':').map(str::parse).collect::<Result<_, _>>()
             .with_context(|| format!("--sweep {spec:?}: expected FROM:TO:STEP (m/s)"))?;
         let [from, to, step] = parts[..] else { bail!("--sweep {spec:?}: expected FROM:TO:STEP (m/s)") };
@@ -72,7 +70,7 @@ pub fn run(args: ScenarioArgs) -> Result<()> {
         }
         let n = ((to - from) / step + 1e-9).floor() as usize + 1;
         let speeds: Vec<f64> = (0..n).map(|i| ((from + step * i as f64) * 1000.0).round() / 1000.0).collect();
-        let points = sweep_moving_sphere(&model, reach, &speeds, 0.01)?;
+        let points = sweep_moving_sphere_with(&model, reach, &speeds, 0.01, &pairs)?;
         println!("{:>9}  {:>4}  {:>13}  {:>15}  {:>18}  {:>10}  {:>9}", "speed_m_s", "ok", "hand_min_m", "arm_min_m", "final_goal_error_m", "collisions", "max_qd/lim");
         for p in &points {
             let s = &p.summary;
