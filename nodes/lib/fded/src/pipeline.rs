@@ -155,6 +155,8 @@ pub struct Fded {
     normals: Vec<(u32, Option<Vector3<f32>>)>,
     /// Full-resolution robot removal flags ([`prepare`](Fded::prepare) only).
     pixel_robot: Vec<u8>,
+    /// The window [`Buffers::window`] holds this frame: `(u0, v0, nw, nh)`.
+    window_key: Option<(u32, u32, u32, u32)>,
 }
 
 /// Half sizes of the windows: obstacle-side refinement (±(S − 1)) and normal fit (L points).
@@ -253,6 +255,7 @@ impl Fded {
             removal,
             normals: Vec::with_capacity(links),
             pixel_robot: vec![0; n],
+            window_key: None,
         })
     }
 
@@ -347,6 +350,7 @@ impl Fded {
             depth,
             buf.width as usize,
             &self.removal,
+            [0.0, f32::INFINITY],
             &mut self.pixel_robot,
             Some(&mut buf.chunk_box),
         );
@@ -465,6 +469,7 @@ impl Fded {
         let t0 = Instant::now();
         self.check(frame)?;
         self.transform(frame);
+        self.window_key = None;
         let t1 = Instant::now();
         let depth = &frame.depth.data[..];
         let step = (self.params.step_x, self.params.step_y);
@@ -559,9 +564,17 @@ impl Fded {
                 continue;
             }
             let win = window_around(b.object_pixel, half, self.cam.width, self.cam.height);
-            classify_window(&self.meshes, depth, &self.classify, &self.removal, win.0, win.1, win.2, win.3, &mut self.buf);
+            self.classify_window(depth, win);
             refine_obstacle(&self.buf, &self.classify, win, &mut b);
             self.buf.link_best[l] = b;
+        }
+    }
+
+    /// Classifies window `win` into [`Buffers::window`] unless it already holds it this frame.
+    fn classify_window(&mut self, depth: &[f32], win: (u32, u32, u32, u32)) {
+        if self.window_key != Some(win) {
+            classify_window(&self.meshes, depth, &self.classify, &self.removal, win.0, win.1, win.2, win.3, &mut self.buf);
+            self.window_key = Some(win);
         }
     }
 
@@ -600,7 +613,7 @@ impl Fded {
                 Some(n) => n,
                 None => {
                     let win = window_around(b.object_pixel, (half, half), self.cam.width, self.cam.height);
-                    classify_window(&self.meshes, depth, &self.classify, &self.removal, win.0, win.1, win.2, win.3, &mut self.buf);
+                    self.classify_window(depth, win);
                     let n = obstacle_normal(&self.buf, win, b.object_pixel, self.params.normal_sigma as f32);
                     self.normals.push((b.object_pixel, n));
                     n

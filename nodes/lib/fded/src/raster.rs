@@ -174,6 +174,20 @@ fn edge(a: [f32; 2], b: [f32; 2], p: [f32; 2]) -> f32 {
     (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
 }
 
+/// `⌊x⌋` for |x| < 2³¹ without a libm call (the baseline x86-64 target has no SSE4.1 round).
+#[inline(always)]
+pub(crate) fn floor_i(x: f32) -> i32 {
+    let t = x as i32;
+    if (t as f32) > x { t - 1 } else { t }
+}
+
+/// `⌈x⌉` for |x| < 2³¹ without a libm call.
+#[inline(always)]
+pub(crate) fn ceil_i(x: f32) -> i32 {
+    let t = x as i32;
+    if (t as f32) < x { t + 1 } else { t }
+}
+
 /// Triangles per chunk of [`Buffers::chunk_box`]: windows only visit chunks whose pixel box
 /// overlaps them.
 pub const TRI_CHUNK: usize = 32;
@@ -189,44 +203,48 @@ pub struct RobotPointSet {
 }
 
 impl RobotPointSet {
-    /// The vertices of every link mesh, then, per triangle, the corners of its halvings along
-    /// the longest edge until no edge exceeds `spacing` (m); duplicates dropped.
+    /// The vertices of every link mesh, then, per triangle longer than `spacing` (m), a grid
+    /// along its two edges from the corner between its longest and shortest edge, each edge
+    /// cut into pieces of at most `spacing`; exact duplicates dropped.
     pub fn from_meshes(meshes: &RobotMeshes, spacing: f64) -> Self {
-        let mut points = Vec::with_capacity(meshes.vertices.len() * 4);
+        let mut points = Vec::with_capacity(meshes.vertices.len() * 3);
         let mut link_points = Vec::with_capacity(meshes.link_vertices.len());
         let mut seen = std::collections::HashSet::new();
-        let key = |p: &[f64; 3]| p.map(|c| (c * 1e7).round() as i64);
-        let mut stack: Vec<[[f64; 3]; 3]> = Vec::new();
         for range in &meshes.link_vertices {
             let start = points.len();
             seen.clear();
-            let vert = |i: u32| meshes.vertices[i as usize].map(f64::from);
             for v in &meshes.vertices[range.clone()] {
-                let p = v.map(f64::from);
-                if seen.insert(key(&p)) {
+                if seen.insert(v.map(f32::to_bits)) {
                     points.push(*v);
                 }
             }
             for tri in meshes.triangles.iter().filter(|t| range.contains(&(t[0] as usize))) {
-                stack.push([vert(tri[0]), vert(tri[1]), vert(tri[2])]);
-                while let Some(t) = stack.pop() {
-                    let len = |a: &[f64; 3], b: &[f64; 3]| {
-                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
-                    };
-                    let e = [len(&t[1], &t[2]), len(&t[2], &t[0]), len(&t[0], &t[1])];
-                    let k = if e[0] >= e[1] && e[0] >= e[2] { 0 } else if e[1] >= e[2] { 1 } else { 2 };
-                    if e[k] <= spacing {
-                        for p in &t {
-                            if seen.insert(key(p)) {
-                                points.push(p.map(|c| c as f32));
-                            }
+                let c = tri.map(|i| meshes.vertices[i as usize].map(f64::from));
+                let len = |a: &[f64; 3], b: &[f64; 3]| {
+                    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                };
+                // Edge k is opposite corner k.
+                let e = [len(&c[1], &c[2]), len(&c[2], &c[0]), len(&c[0], &c[1])];
+                let long = (0..3).max_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(0);
+                if e[long] <= spacing {
+                    continue;
+                }
+                let short = (0..3).filter(|&k| k != long).min_by(|&a, &b| e[a].total_cmp(&e[b])).unwrap_or(0);
+                let origin = 3 - long - short;
+                let (o, a, b) = (c[origin], c[short], c[long]);
+                // o→a is the longest edge (opposite corner `long`), o→b the shortest.
+                let (na, nb) = ((len(&o, &a) / spacing).ceil().max(1.0) as u32, (len(&o, &b) / spacing).ceil().max(1.0) as u32);
+                for i in 0..=na {
+                    for j in 0..=nb {
+                        if u64::from(i) * u64::from(nb) + u64::from(j) * u64::from(na) > u64::from(na) * u64::from(nb) {
+                            break;
                         }
-                        continue;
+                        let (s, t) = (f64::from(i) / f64::from(na), f64::from(j) / f64::from(nb));
+                        let p = [0, 1, 2].map(|k| (o[k] + s * (a[k] - o[k]) + t * (b[k] - o[k])) as f32);
+                        if seen.insert(p.map(f32::to_bits)) {
+                            points.push(p);
+                        }
                     }
-                    let (a, b) = (t[(k + 1) % 3], t[(k + 2) % 3]);
-                    let m = [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5, (a[2] + b[2]) * 0.5];
-                    stack.push([t[k], a, m]);
-                    stack.push([t[k], m, b]);
                 }
             }
             link_points.push(start..points.len());
@@ -305,10 +323,11 @@ pub struct Removal {
 }
 
 /// Robot removal at the samples of `grid`: a sample whose real depth d (`depth`, full image
-/// of `width` columns) lies within `δ` of the depth d_r of **any** link triangle covering it
-/// (triangles grown by `margin` px) gets `flags = 1`. Triangles `tris` (indices into
+/// of `width` columns) lies within `δ` of the depth d_r of **any** front-facing link triangle
+/// covering it (not only the nearest one; triangles grown by `margin` px) gets `flags = 1`. Triangles `tris` (indices into
 /// `meshes.triangles`); with `chunk_box`, the pixel box of every chunk of [`TRI_CHUNK`]
-/// triangles in `tris` is written too. Samples with d ≤ 0 or NaN are skipped.
+/// triangles in `tris` is written too. Samples with d ≤ 0 or NaN are skipped; `drange` bounds
+/// the samples' depths (m): triangles whose depth range is farther than δ from it are skipped.
 #[allow(clippy::too_many_arguments)]
 pub fn mark_robot(
     meshes: &RobotMeshes,
@@ -319,12 +338,14 @@ pub fn mark_robot(
     depth: &[f32],
     width: usize,
     k: &Removal,
+    drange: [f32; 2],
     flags: &mut [u8],
     mut chunk_box: Option<&mut [[f32; 4]]>,
 ) {
     let m = k.margin;
     let (gu0, gv0, su, sv) = (grid.u0 as f32, grid.v0 as f32, grid.su as f32, grid.sv as f32);
     let (nx, ny) = (grid.nx as f32, grid.ny as f32);
+    let (isu, isv) = (1.0 / su, 1.0 / sv);
     let mut cur_chunk = usize::MAX;
     let mut cbox = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
     for t in tris {
@@ -343,10 +364,6 @@ pub fn mark_robot(
         if pa[0].is_nan() || pb[0].is_nan() || pc[0].is_nan() {
             continue;
         }
-        let area = edge(pa, pb, pc);
-        if area.abs() < 1e-12 {
-            continue;
-        }
         let umin = pa[0].min(pb[0]).min(pc[0]) - m;
         let umax = pa[0].max(pb[0]).max(pc[0]) + m;
         let vmin = pa[1].min(pb[1]).min(pc[1]) - m;
@@ -354,22 +371,45 @@ pub fn mark_robot(
         if chunk_box.is_some() {
             cbox = [cbox[0].min(umin), cbox[1].min(vmin), cbox[2].max(umax), cbox[3].max(vmax)];
         }
-        let i_lo = ((umin - gu0) / su).ceil().max(0.0);
-        let i_hi = ((umax - gu0) / su).floor().min(nx - 1.0);
-        let j_lo = ((vmin - gv0) / sv).ceil().max(0.0);
-        let j_hi = ((vmax - gv0) / sv).floor().min(ny - 1.0);
+        // Clamped in float first: far off-screen corners must not overflow the integer casts.
+        let i_lo = ceil_i(((umin - gu0) * isu).clamp(-1.0, nx)).max(0);
+        let i_hi = floor_i(((umax - gu0) * isu).clamp(-1.0, nx)).min(nx as i32 - 1);
+        let j_lo = ceil_i(((vmin - gv0) * isv).clamp(-1.0, ny)).max(0);
+        let j_hi = floor_i(((vmax - gv0) * isv).clamp(-1.0, ny)).min(ny as i32 - 1);
         if i_lo > i_hi || j_lo > j_hi {
+            continue;
+        }
+        let (a, b, c) = (
+            cam_vertices[tri[0] as usize],
+            cam_vertices[tri[1] as usize],
+            cam_vertices[tri[2] as usize],
+        );
+        // Back faces of the closed, outward-wound link meshes lie behind their front faces,
+        // which cover the same pixels.
+        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let nrm = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        if nrm[0] * a[0] + nrm[1] * a[1] + nrm[2] * a[2] >= 0.0 {
+            continue;
+        }
+        let area = edge(pa, pb, pc);
+        if area.abs() < 1e-12 {
+            continue;
+        }
+        // With clamped barycentrics the depth stays within the corners' depths.
+        let zlo = a[2].min(b[2]).min(c[2]) - k.delta;
+        let zhi = a[2].max(b[2]).max(c[2]) + k.delta;
+        if zhi < drange[0] || zlo > drange[1] {
             continue;
         }
         let s = area.signum();
         let len = |a: [f32; 2], b: [f32; 2]| ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
         // Edge i is opposite corner i; inside (grown) when s · edge ≥ −margin · length.
         let edges = [(pb, pc, m * len(pb, pc)), (pc, pa, m * len(pc, pa)), (pa, pb, m * len(pa, pb))];
-        let (a, b, c) = (
-            cam_vertices[tri[0] as usize],
-            cam_vertices[tri[1] as usize],
-            cam_vertices[tri[2] as usize],
-        );
         let (iza, izb, izc) = (1.0 / a[2], 1.0 / b[2], 1.0 / c[2]);
         for j in j_lo as u32..=j_hi as u32 {
             let v = grid.v0 + j * grid.sv;
@@ -391,12 +431,13 @@ pub fn mark_robot(
             if empty || xl > xr {
                 continue;
             }
-            let i0 = ((xl - gu0) / su - 1e-3).ceil().max(i_lo) as u32;
-            let i1 = ((xr - gu0) / su + 1e-3).floor().min(i_hi) as u32;
+            let i0 = ceil_i(((xl - gu0) * isu - 1e-3).clamp(-1.0, nx)).max(i_lo);
+            let i1 = floor_i(((xr - gu0) * isu + 1e-3).clamp(-1.0, nx)).min(i_hi);
             let row = v as usize * width;
             if i0 > i1 {
                 continue;
             }
+            let (i0, i1) = (i0 as u32, i1 as u32);
             for i in i0..=i1 {
                 let fi = (j * grid.nx + i) as usize;
                 if flags[fi] != 0 {
@@ -404,7 +445,7 @@ pub fn mark_robot(
                 }
                 let u = grid.u0 + i * grid.su;
                 let d = depth[row + u as usize];
-                if !(d > 0.0) {
+                if !(d > 0.0 && d >= zlo && d <= zhi) {
                     continue;
                 }
                 let p = [u as f32, py];

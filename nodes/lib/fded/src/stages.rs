@@ -177,6 +177,7 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         depth,
         buf.width as usize,
         k,
+        [0.0, f32::INFINITY],
         &mut buf.lattice_robot,
         Some(&mut buf.chunk_box),
     );
@@ -195,9 +196,11 @@ pub fn robot_lattice(buf: &mut Buffers, tile: u32, links: usize) {
             buf.point_slot[i] = u32::MAX;
             continue;
         }
-        let (pu, pv) = (uv[0].round() as u32, uv[1].round() as u32);
+        // Nearest pixel (u ≥ −0.5, so truncation is the floor).
+        let (pu, pv) = ((uv[0] + 0.5) as u32, (uv[1] + 0.5) as u32);
+        let (tx, ty) = (pu / tile, pv / tile);
         let l = buf.cam_points[i][3] as u32;
-        let slot = ((pv / tile) * tiles_x + pu / tile) * links as u32 + l;
+        let slot = (ty * tiles_x + tx) * links as u32 + l;
         buf.point_slot[i] = slot;
         let c = &mut buf.slot_count[slot as usize];
         if *c == 0 {
@@ -359,6 +362,25 @@ pub fn classify_window(
         nx: nw,
         ny: nh,
     };
+    // Candidates first (range, table), so robot removal only rasterises triangles near their
+    // depths.
+    let mut drange = [f32::INFINITY, f32::NEG_INFINITY];
+    for j in 0..nh as usize {
+        let v = v0 as usize + j;
+        let ry = buf.ray_y[v];
+        for i in 0..nw as usize {
+            let u = u0 as usize + i;
+            let d = depth[v * w + u];
+            let keep = k.candidate(d, buf.ray_x[u], ry);
+            buf.window[j * nw as usize + i] = if keep { d } else { 0.0 };
+            if keep {
+                drange = [drange[0].min(d), drange[1].max(d)];
+            }
+        }
+    }
+    if drange[0] > drange[1] {
+        return;
+    }
     let (wu0, wv0, wu1, wv1) = (u0 as f32, v0 as f32, (u0 + nw) as f32 - 1.0, (v0 + nh) as f32 - 1.0);
     let tris = meshes.triangles.len();
     for (c, b) in buf.chunk_box.iter().enumerate() {
@@ -366,16 +388,11 @@ pub fn classify_window(
             continue;
         }
         let range = c * TRI_CHUNK..((c + 1) * TRI_CHUNK).min(tris);
-        mark_robot(meshes, &buf.cam_vertices, &buf.vertex_uv, range, &grid, depth, w, removal, flags, None);
+        mark_robot(meshes, &buf.cam_vertices, &buf.vertex_uv, range, &grid, depth, w, removal, drange, flags, None);
     }
-    for j in 0..nh as usize {
-        let v = v0 as usize + j;
-        let ry = buf.ray_y[v];
-        for i in 0..nw as usize {
-            let u = u0 as usize + i;
-            let d = depth[v * w + u];
-            let keep = flags[j * nw as usize + i] == 0 && k.candidate(d, buf.ray_x[u], ry);
-            buf.window[j * nw as usize + i] = if keep { d } else { 0.0 };
+    for (f, &r) in buf.window[..n].iter_mut().zip(flags.iter()) {
+        if r != 0 {
+            *f = 0.0;
         }
     }
 }
@@ -449,9 +466,10 @@ pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), object_pixel: u
     }
     let o = Vector3::new(buf.ray_x[ou as usize] * d0, buf.ray_y[ov as usize] * d0, d0);
     let inv_s2 = 1.0 / (sigma * sigma);
-    let mut sw = 0.0f64;
-    let mut s1 = Vector3::<f64>::zeros();
-    let mut s2 = Matrix3::<f64>::zeros();
+    // Weights below 1e-6 are dropped: ‖q‖² > 13.8 σ².
+    let cut = 13.8 * sigma * sigma;
+    // Σw, Σw·q, Σw·q·qᵀ (upper triangle), accumulated in f64.
+    let mut acc = [0.0f64; 10];
     let mut count = 0usize;
     for j in 0..nh {
         let ry = buf.ray_y[(v0 + j) as usize];
@@ -460,23 +478,33 @@ pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), object_pixel: u
             if d <= 0.0 {
                 continue;
             }
-            let p = Vector3::new(buf.ray_x[u0 as usize + i] * d, ry * d, d);
-            let q = p - o;
-            let wgt = (-q.norm_squared() * inv_s2).exp();
-            if wgt < 1e-6 {
+            let q = [buf.ray_x[u0 as usize + i] * d - o.x, ry * d - o.y, d - o.z];
+            let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            if n2 > cut {
                 continue;
             }
-            let (wgt, q) = (f64::from(wgt), q.cast::<f64>());
-            sw += wgt;
-            s1 += q * wgt;
-            s2 += q * q.transpose() * wgt;
+            let wgt = f64::from(exp_neg(-n2 * inv_s2));
+            let (x, y, z) = (f64::from(q[0]), f64::from(q[1]), f64::from(q[2]));
+            let (wx, wy, wz) = (wgt * x, wgt * y, wgt * z);
+            acc[0] += wgt;
+            acc[1] += wx;
+            acc[2] += wy;
+            acc[3] += wz;
+            acc[4] += wx * x;
+            acc[5] += wx * y;
+            acc[6] += wx * z;
+            acc[7] += wy * y;
+            acc[8] += wy * z;
+            acc[9] += wz * z;
             count += 1;
         }
     }
+    let sw = acc[0];
     if count < 3 || sw <= 0.0 {
         return None;
     }
-    let mean = s1 / sw;
+    let mean = Vector3::new(acc[1], acc[2], acc[3]) / sw;
+    let s2 = Matrix3::new(acc[4], acc[5], acc[6], acc[5], acc[7], acc[8], acc[6], acc[8], acc[9]);
     let cov = s2 / sw - mean * mean.transpose();
     let eig = SymmetricEigen::new(cov);
     let mut order = [0usize, 1, 2];
@@ -487,6 +515,34 @@ pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), object_pixel: u
     }
     let n: Vector3<f32> = eig.eigenvectors.column(order[0]).into_owned().cast();
     n.try_normalize(1e-6)
+}
+
+/// `e^x` for `x ≤ 0` (relative error < 2·10⁻⁵; 0 below −87) without a libm call.
+#[inline(always)]
+pub fn exp_neg(x: f32) -> f32 {
+    let y = (x * std::f32::consts::LOG2_E).max(-126.0);
+    let n = crate::raster::floor_i(y);
+    let f = y - n as f32;
+    // 2^f on [0, 1): Taylor series of e^(f ln 2) to degree 6.
+    let p = 1.0
+        + f * (0.693_147_2
+            + f * (0.240_226_5 + f * (0.055_504_11 + f * (0.009_618_129 + f * (0.001_333_356 + f * 0.000_154_035_3)))));
+    f32::from_bits(((n + 127) as u32) << 23) * p
+}
+
+#[cfg(test)]
+mod tests {
+    use super::exp_neg;
+
+    #[test]
+    fn exp_neg_is_close_to_exp() {
+        let mut x = 0.0f32;
+        while x > -80.0 {
+            let (a, b) = (exp_neg(x), x.exp());
+            assert!((a - b).abs() <= 2e-5 * b + 1e-37, "{x}: {a} vs {b}");
+            x -= 0.0137;
+        }
+    }
 }
 
 /// The camera model's ray tables.
