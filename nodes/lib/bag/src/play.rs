@@ -3,8 +3,9 @@
 //!
 //! [`Player`] turns a [`BagReader`] and [`PlayOptions`] into a stream of [`PlayItem`]s, each with
 //! the instant it is due, relative to the start of playback. The caller publishes them (the
-//! `cowork bag play` command does it over DDS) and waits with [`wait_until`], which sleeps and
-//! then spins the last [`SPIN_WINDOW`] for sub-millisecond precision.
+//! `cowork bag play` command does it over DDS, one publisher thread per topic) and waits with
+//! [`wait_until`], which sleeps and then spins the last [`SPIN_WINDOW`] for sub-millisecond
+//! precision.
 
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};
@@ -14,9 +15,13 @@ use crate::{BagError, BagReader, Messages, RawMessage, Result};
 /// Topic of the simulated clock.
 pub const CLOCK_TOPIC: &str = "/clock";
 
-/// The last part of a wait that [`wait_until`] spends spinning instead of sleeping: the OS
-/// sleep overshoots by up to about a millisecond under load.
-pub const SPIN_WINDOW: Duration = Duration::from_micros(1_500);
+/// The last part of a wait that [`wait_until`] spends spinning instead of sleeping: an OS sleep
+/// on an idle machine overshoots by 50–100 µs. Kept short on purpose: on a loaded machine a
+/// thread that has just slept is scheduled ahead of busy ones, while one that spins (or yields
+/// in a loop) loses its turn to them — measured on this 2-core machine at load 6–8, waiting
+/// with a 1.5 ms `yield_now` spin was 3.6–5.2 ms late at the median, with 0.1–0.5 ms of
+/// `spin_loop` 0.01–0.1 ms.
+pub const SPIN_WINDOW: Duration = Duration::from_micros(200);
 
 /// Replay speed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -342,8 +347,8 @@ impl Iterator for Player<'_> {
     }
 }
 
-/// Waits until `deadline`: sleeps until [`SPIN_WINDOW`] before it, then spins (yielding the
-/// CPU between checks). Returns at once for a deadline in the past.
+/// Waits until `deadline`: sleeps until [`SPIN_WINDOW`] before it, then spins on the clock.
+/// Returns at once for a deadline in the past.
 pub fn wait_until(deadline: Instant) {
     let now = Instant::now();
     if deadline <= now {
@@ -354,7 +359,7 @@ pub fn wait_until(deadline: Instant) {
         std::thread::sleep(left - SPIN_WINDOW);
     }
     while Instant::now() < deadline {
-        std::thread::yield_now();
+        std::hint::spin_loop();
     }
 }
 

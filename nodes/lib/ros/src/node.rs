@@ -238,7 +238,7 @@ fn ros_topic_name(dds: &str) -> Option<String> {
 }
 
 /// `sensor_msgs::msg::dds_::JointState_` → `sensor_msgs/msg/JointState`.
-fn ros_type_name(dds: &str) -> Option<String> {
+pub(crate) fn ros_type_name(dds: &str) -> Option<String> {
     let (pkg, rest) = dds.split_once("::msg::dds_::")?;
     Some(format!("{pkg}/msg/{}", rest.strip_suffix('_').unwrap_or(rest)))
 }

@@ -138,6 +138,16 @@ impl RawPublisher {
             .map_err(|e| anyhow::anyhow!("publish on {} failed: {e:?}", self.topic))
     }
 
+    /// Blocks until every matched reliable reader has acknowledged everything published so
+    /// far, or `max_wait` passes: `Ok(false)` on time-out. Returns at once when no reliable
+    /// reader is matched. A replay uses it to bound the data in flight and, before it exits,
+    /// so that nothing still in the writer's buffer is lost.
+    pub fn wait_for_acknowledgments(&self, max_wait: std::time::Duration) -> Result<bool> {
+        self.writer
+            .wait_for_acknowledgments(max_wait)
+            .map_err(|e| anyhow::anyhow!("waiting for acknowledgements on {} failed: {e:?}", self.topic))
+    }
+
     /// Topic name.
     pub fn topic(&self) -> &str {
         &self.topic
@@ -271,6 +281,24 @@ impl RosNode {
             .and_then(|s| s.create_simple_datareader_no_key::<Payload, PassThrough>(&t, Some(dds_qos)))
             .map_err(|e| anyhow::anyhow!("cannot subscribe to {topic} ({type_name}): {e:?}"))?;
         Ok(RawSubscription { reader, topic: topic.to_owned(), type_name: type_name.to_owned() })
+    }
+
+    /// ROS types (`pkg/msg/Name`) of the writers discovered so far on `topic` (ROS name),
+    /// sorted, without repeats. Readers do not count: every ros2-client node has a `/clock`
+    /// reader of its own type, which is no reason to record `/clock` with that type.
+    pub fn writer_type_names(&self, topic: &str) -> Vec<String> {
+        let dds_name = format!("rt{topic}");
+        let mut types: Vec<String> = self
+            .context
+            .domain_participant()
+            .discovered_writers()
+            .into_iter()
+            .filter(|w| w.publication_topic_data.topic_name == dds_name)
+            .filter_map(|w| crate::node::ros_type_name(&w.publication_topic_data.type_name))
+            .collect();
+        types.sort();
+        types.dedup();
+        types
     }
 
     /// The QoS that matches every writer discovered so far on `topic` (ROS name), the way

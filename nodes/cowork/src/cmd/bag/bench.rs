@@ -1,6 +1,7 @@
 //! `cowork bag bench`: replay timing at `--rate 1` and `--max` throughput on a synthetic depth
-//! bag (640×480 32FC1 images and camera info at 30 Hz, joint states at 100 Hz), with an
-//! in-process subscriber on a private DDS domain measuring what arrives.
+//! bag (640×480 32FC1 images and camera info at 30 Hz, joint states at 100 Hz) or on a given
+//! bag (`--bag`, e.g. one of `bags/`), with an in-process reliable subscriber to every topic on
+//! a private DDS domain counting what arrives.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -9,7 +10,7 @@ use std::time::Duration;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use cowork_bag::play::percentile;
+use cowork_bag::play::{CLOCK_TOPIC, percentile};
 use cowork_bag::{BagReader, BagWriter};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
@@ -27,6 +28,9 @@ pub struct BenchArgs {
     /// DDS domain of the benchmark (kept away from a running graph).
     #[arg(long, default_value_t = 211)]
     pub domain: u16,
+    /// Replay this bag instead of writing a synthetic one (`--seconds` is then ignored).
+    #[arg(long, value_name = "FILE")]
+    pub bag: Option<std::path::PathBuf>,
 }
 
 const TOPICS: [(&str, &str); 3] = [
@@ -78,12 +82,17 @@ fn write_bag(path: &std::path::Path, seconds: f64) -> Result<u64> {
     Ok(w.finish()?.message_count)
 }
 
-/// Receive times (ns) per topic, collected by a subscriber thread until `stop`.
-fn subscribe(domain: u16, stop: Arc<AtomicBool>) -> Result<std::thread::JoinHandle<Result<BTreeMap<String, Vec<u64>>>>> {
+/// Receive times (ns) per topic of `topics` (name, type), collected by a subscriber thread
+/// until `stop`.
+fn subscribe(
+    domain: u16,
+    topics: &[(String, String)],
+    stop: Arc<AtomicBool>,
+) -> Result<std::thread::JoinHandle<Result<BTreeMap<String, Vec<u64>>>>> {
     let mut node = RosNode::new("cowork_bag_bench_sub", &NodeConfig { domain_id: Some(domain), ..Default::default() })?;
-    let subs = TOPICS
+    let subs = topics
         .iter()
-        .map(|(t, ty)| node.raw_subscription(t, ty, &qos::reliable_depth(100)).map(|s| (t.to_string(), s)))
+        .map(|(t, ty)| node.raw_subscription(t, ty, &qos::reliable_depth(100)).map(|s| (t.clone(), s)))
         .collect::<Result<Vec<_>>>()?;
     Ok(std::thread::spawn(move || {
         let _node = node;
@@ -108,6 +117,10 @@ fn subscribe(domain: u16, stop: Arc<AtomicBool>) -> Result<std::thread::JoinHand
 
 /// Runs the benchmark and prints its table.
 pub fn run(args: &BenchArgs) -> Result<()> {
+    if let Some(bag) = &args.bag {
+        let n = BagReader::open(bag).with_context(|| format!("reading bag {}", bag.display()))?.info().message_count;
+        return bench(args, bag, n);
+    }
     let path = std::env::temp_dir().join(format!("cowork_bag_bench_{}.mcap", std::process::id()));
     let n = write_bag(&path, args.seconds).with_context(|| format!("writing {}", path.display()))?;
     let result = bench(args, &path, n);
@@ -123,12 +136,21 @@ fn bench(args: &BenchArgs, path: &std::path::Path, n: u64) -> Result<()> {
         log_times.entry(m.topic.to_string()).or_default().push(m.log_time_ns);
     }
     let size_mb = std::fs::metadata(path).map(|m| m.len() as f64 / 1e6).unwrap_or(0.0);
-    println!("bag: {n} messages, {:.1} s, {size_mb:.1} MB on disk (zstd)", args.seconds);
+    let info = reader.info();
+    let span_s = info.end_ns.unwrap_or(0).saturating_sub(info.start_ns.unwrap_or(0)) as f64 * 1e-9;
+    println!("bag {}: {n} messages, {span_s:.1} s, {size_mb:.1} MB on disk (zstd)", path.display());
+    // /clock is best effort (its publisher QoS): not counted.
+    let topics: Vec<(String, String)> = info
+        .topics
+        .iter()
+        .filter(|t| t.topic != CLOCK_TOPIC && !t.type_name.is_empty())
+        .map(|t| (t.topic.clone(), t.type_name.clone()))
+        .collect();
 
     let mut player = RosNode::new("cowork_bag_player", &NodeConfig { domain_id: Some(args.domain), ..Default::default() })?;
     for (label, max) in [("--rate 1", false), ("--max", true)] {
         let stop = Arc::new(AtomicBool::new(false));
-        let sub = subscribe(args.domain, Arc::clone(&stop))?;
+        let sub = subscribe(args.domain, &topics, Arc::clone(&stop))?;
         let play = PlayArgs {
             file: path.to_path_buf(),
             rate: 1.0,
@@ -148,7 +170,8 @@ fn bench(args: &BenchArgs, path: &std::path::Path, n: u64) -> Result<()> {
         println!("== {label}");
         stats.print(max);
         let received: usize = got.values().map(Vec::len).sum();
-        println!("received {received} of {} messages", stats.published);
+        let sent: usize = topics.iter().map(|(t, _)| log_times.get(t).map_or(0, Vec::len)).sum();
+        println!("received {received} of the {sent} messages of the subscribed topics");
         if !max {
             // Receive-side timing: (receive − log time) minus its median, over all messages
             // that arrived in order on each topic.

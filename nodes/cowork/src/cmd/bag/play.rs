@@ -3,6 +3,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::IsTerminal;
 use std::path::PathBuf;
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -10,9 +11,10 @@ use clap::Args;
 use cowork_bag::play::{CLOCK_TOPIC, percentile, wait_until};
 use cowork_bag::{BagReader, PlayItem, PlayOptions, Player, Rate, Verdict, check_message};
 use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::RosMessage;
 use cowork_msgs::rosgraph_msgs::Clock;
 use cowork_ros::raw::RawPublisher;
-use cowork_ros::{NodeConfig, Publisher, RosNode, qos, shutdown};
+use cowork_ros::{NodeConfig, RosNode, qos, shutdown};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 /// Arguments of `cowork bag play`.
@@ -62,12 +64,15 @@ pub struct PlayStats {
     pub clock_ticks: u64,
     /// Messages skipped by the checks or refused by the publisher, per topic.
     pub skipped: BTreeMap<String, u64>,
-    /// Wall time from the first due instant to the last publish (s).
+    /// Wall time from the first due instant to the last publish or, if later, its
+    /// acknowledgement by every reliable subscriber (s).
     pub elapsed_s: f64,
     /// Lateness of each publish call behind its due instant (ms), not at `--max`.
     pub late_ms: Vec<f64>,
     /// Duration of each publish call (ms).
     pub publish_ms: Vec<f64>,
+    /// Topics whose reliable subscribers had not acknowledged every message at the end.
+    pub unacknowledged: Vec<String>,
 }
 
 impl PlayStats {
@@ -101,6 +106,9 @@ impl PlayStats {
         }
         for (topic, n) in &self.skipped {
             println!("skipped {n} messages on {topic}");
+        }
+        if !self.unacknowledged.is_empty() {
+            println!("not acknowledged by every reliable subscriber: {}", self.unacknowledged.join(", "));
         }
     }
 }
@@ -146,7 +154,127 @@ fn publish_qos(topic: &str) -> qos::QosProfile {
     }
 }
 
+/// How long before its due instant the reader hands a message to its topic's publisher
+/// thread. Reading the bag (zstd chunks of depth images), checking messages and other topics'
+/// publish calls all happen in this margin, never between a due instant and its publish call.
+const LOOKAHEAD: Duration = Duration::from_millis(250);
+
+/// Messages queued per topic thread at `--rate` (memory is bounded by [`LOOKAHEAD`] there).
+const QUEUE_TIMED: usize = 512;
+
+/// Messages queued per topic thread at `--max` (the queue is the read-ahead; depth images
+/// are ~1 MB each).
+const QUEUE_MAX: usize = 16;
+
+/// At `--max`, a topic thread waits for its reliable readers' acknowledgements after this
+/// many bytes or messages: a bounded window in flight, so that a fast replay does not outrun
+/// a subscriber (RustDDS keeps unacknowledged samples for repair; UDP on loopback drops
+/// fragments of a burst of megabyte images, which then need repair rounds).
+const WINDOW_BYTES: u64 = 4 << 20;
+const WINDOW_MESSAGES: u64 = 64;
+
+/// Longest wait for the acknowledgement of one window at `--max`.
+const WINDOW_ACK_WAIT: Duration = Duration::from_secs(2);
+
+/// Longest wait at the end of a replay for reliable readers to acknowledge everything, before
+/// the writers (and, for `cowork bag play`, the process) go away.
+const FINAL_ACK_WAIT: Duration = Duration::from_secs(5);
+
+/// One payload for a topic thread: publish `data` at `deadline`.
+struct Job {
+    deadline: Instant,
+    data: Vec<u8>,
+    /// A `/clock` tick generated from bag time (counted apart from bag messages).
+    tick: bool,
+}
+
+/// What one topic thread did.
+#[derive(Debug, Default)]
+struct TopicStats {
+    published: u64,
+    bytes: u64,
+    ticks: u64,
+    skipped: u64,
+    late_ms: Vec<f64>,
+    publish_ms: Vec<f64>,
+    /// When the last message was published, or, if later, acknowledged by every reliable
+    /// reader.
+    finished: Option<Instant>,
+    /// Reliable readers had not acknowledged everything within [`FINAL_ACK_WAIT`].
+    unacknowledged: bool,
+}
+
+/// The publisher thread of one topic: waits for each job's deadline (not at `--max`) and
+/// publishes it; at `--max` it keeps a bounded window in flight; at the end it waits for the
+/// acknowledgements of reliable readers.
+fn publish_topic(publisher: &RawPublisher, jobs: Receiver<Job>, max: bool, bar: &ProgressBar) -> TopicStats {
+    let mut s = TopicStats::default();
+    let mut warned = false;
+    let (mut window_bytes, mut window_messages) = (0u64, 0u64);
+    for job in jobs {
+        if !max && !wait_interruptible(job.deadline) {
+            return s;
+        }
+        if shutdown::requested() {
+            return s;
+        }
+        let call = Instant::now();
+        if let Err(e) = publisher.publish(&job.data) {
+            s.skipped += 1;
+            if !warned {
+                warned = true;
+                bar.suspend(|| tracing::warn!("{e:#}"));
+            }
+            continue;
+        }
+        let done = Instant::now();
+        s.finished = Some(done);
+        if !max {
+            s.late_ms.push(ms(call.saturating_duration_since(job.deadline)));
+        }
+        if job.tick {
+            s.ticks += 1;
+            continue;
+        }
+        s.publish_ms.push(ms(done - call));
+        s.published += 1;
+        s.bytes += job.data.len() as u64;
+        bar.inc(1);
+        if max {
+            window_bytes += job.data.len() as u64;
+            window_messages += 1;
+            if window_bytes >= WINDOW_BYTES || window_messages >= WINDOW_MESSAGES {
+                (window_bytes, window_messages) = (0, 0);
+                if !publisher.wait_for_acknowledgments(WINDOW_ACK_WAIT).unwrap_or(false) && !warned {
+                    warned = true;
+                    bar.suspend(|| {
+                        tracing::warn!(
+                            "{}: a reliable reader has not acknowledged within {:?}; going on",
+                            publisher.topic(),
+                            WINDOW_ACK_WAIT
+                        )
+                    });
+                }
+            }
+        }
+    }
+    if !shutdown::requested() {
+        s.unacknowledged = !publisher.wait_for_acknowledgments(FINAL_ACK_WAIT).unwrap_or(false);
+        if !s.unacknowledged && s.finished.is_some() {
+            s.finished = Some(Instant::now());
+        }
+    }
+    s
+}
+
 /// Replays `reader` on `node` as `args` say; stops early on Ctrl-C.
+///
+/// One thread reads the bag, checks each message and hands it to its topic's publisher thread
+/// [`LOOKAHEAD`] before it is due; each topic thread publishes its messages at their due
+/// instants (bag time mapped to the wall clock by the schedule), so a slow publish call (a
+/// megabyte depth image) delays neither other topics nor the reading. Order is kept within a
+/// topic; across topics it follows the due instants (at `--max`, roughly: each topic thread
+/// runs at its own pace, up to its queue ahead of the others).
 pub fn replay(reader: &BagReader, args: &PlayArgs, node: &mut RosNode) -> Result<PlayStats> {
     if !(args.delay.is_finite() && args.delay >= 0.0) {
         bail!("--delay {}: must be ≥ 0 s", args.delay);
@@ -170,8 +298,9 @@ pub fn replay(reader: &BagReader, args: &PlayArgs, node: &mut RosNode) -> Result
             Err(e) => tracing::warn!("{}: not replayed: {e:#}", t.topic),
         }
     }
-    let clock: Option<Publisher<Clock>> = if player.generates_clock() {
-        Some(node.publisher::<Clock>(CLOCK_TOPIC, &qos::clock())?)
+    // Generated ticks go through the same kind of thread, serialised here.
+    let clock = if player.generates_clock() {
+        Some(node.raw_publisher(CLOCK_TOPIC, &Clock::type_name(), &qos::clock())?)
     } else {
         None
     };
@@ -190,75 +319,102 @@ pub fn replay(reader: &BagReader, args: &PlayArgs, node: &mut RosNode) -> Result
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
 
+    let queue = if max { QUEUE_MAX } else { QUEUE_TIMED };
+    // The first messages are due at `start`: the reader gets LOOKAHEAD to queue them.
+    let start = if max { Instant::now() } else { Instant::now() + LOOKAHEAD };
     let mut stats = PlayStats::default();
-    let mut warned: BTreeSet<String> = BTreeSet::new();
-    let start = Instant::now();
-    let mut last_bag_s = f64::NAN;
-    for item in player {
-        if shutdown::requested() {
-            break;
+    let per_topic = std::thread::scope(|scope| -> Result<Vec<(String, TopicStats)>> {
+        let mut senders: BTreeMap<&str, SyncSender<Job>> = BTreeMap::new();
+        let mut threads = Vec::new();
+        for (topic, publisher) in publishers.iter().map(|(t, p)| (t.as_str(), p)).chain(clock.iter().map(|c| ("", c))) {
+            let (tx, rx) = sync_channel::<Job>(queue);
+            let bar = bar.clone();
+            let thread = std::thread::Builder::new()
+                .name(format!("play{}", if topic.is_empty() { CLOCK_TOPIC } else { topic }))
+                .spawn_scoped(scope, move || publish_topic(publisher, rx, max, &bar))
+                .context("cannot start a publisher thread")?;
+            threads.push((topic.to_owned(), thread));
+            senders.insert(topic, tx);
         }
-        let item = match item {
-            Ok(i) => i,
-            Err(e) => {
-                bar.suspend(|| tracing::error!("{e}; going on with what follows"));
-                continue;
+        let mut warned: BTreeSet<String> = BTreeSet::new();
+        let mut last_bag_s = f64::NAN;
+        for item in player {
+            if shutdown::requested() {
+                break;
             }
-        };
-        let deadline = start + item.due();
-        if !max && !wait_interruptible(deadline) {
-            break;
-        }
-        match item {
-            PlayItem::Clock { time_ns, .. } => {
-                if let Some(c) = &clock {
-                    let call = Instant::now();
-                    c.publish(Clock { clock: Time::from_nanos(time_ns as i64) })?;
-                    if !max {
-                        stats.late_ms.push(ms(call.saturating_duration_since(deadline)));
-                    }
-                    stats.clock_ticks += 1;
-                }
-            }
-            PlayItem::Message { message, .. } => {
-                let topic = message.topic.to_string();
-                let Some(publisher) = publishers.get(&topic) else {
-                    continue;
-                };
-                if !args.no_check
-                    && let Err(e) = check_message(&message).map(|_: Verdict| ())
-                {
-                    *stats.skipped.entry(topic.clone()).or_default() += 1;
-                    if warned.insert(topic) {
-                        bar.suspend(|| tracing::warn!("skipping bad messages: {e}"));
-                    }
+            let item = match item {
+                Ok(i) => i,
+                Err(e) => {
+                    bar.suspend(|| tracing::error!("{e}; going on with what follows"));
                     continue;
                 }
-                let call = Instant::now();
-                if let Err(e) = publisher.publish(&message.data) {
-                    *stats.skipped.entry(topic.clone()).or_default() += 1;
-                    if warned.insert(topic) {
-                        bar.suspend(|| tracing::warn!("{e:#}"));
+            };
+            let deadline = start + item.due();
+            if !max && !wait_interruptible(deadline.checked_sub(LOOKAHEAD).unwrap_or(deadline)) {
+                break;
+            }
+            let (key, job) = match item {
+                PlayItem::Clock { time_ns, .. } => {
+                    let tick = Clock { clock: Time::from_nanos(time_ns as i64) };
+                    ("", Job { deadline, data: cowork_msgs::to_cdr(&tick), tick: true })
+                }
+                PlayItem::Message { message, .. } => {
+                    let Some((&key, _)) = senders.get_key_value(&*message.topic) else {
+                        continue;
+                    };
+                    if !args.no_check
+                        && let Err(e) = check_message(&message).map(|_: Verdict| ())
+                    {
+                        *stats.skipped.entry(key.to_owned()).or_default() += 1;
+                        if warned.insert(key.to_owned()) {
+                            bar.suspend(|| tracing::warn!("skipping bad messages: {e}"));
+                        }
+                        continue;
                     }
-                    continue;
+                    let bag_s = message.log_time_ns as f64 * 1e-9;
+                    if (bag_s - last_bag_s).abs() >= 0.1 || last_bag_s.is_nan() {
+                        last_bag_s = bag_s;
+                        bar.set_message(format!("bag time {bag_s:.1} s"));
+                    }
+                    (key, Job { deadline, data: message.data, tick: false })
                 }
-                let done = Instant::now();
-                if !max {
-                    stats.late_ms.push(ms(call.saturating_duration_since(deadline)));
-                }
-                stats.publish_ms.push(ms(done - call));
-                stats.published += 1;
-                stats.bytes += message.data.len() as u64;
-                bar.inc(1);
-                let bag_s = message.log_time_ns as f64 * 1e-9;
-                if (bag_s - last_bag_s).abs() >= 0.1 || last_bag_s.is_nan() {
-                    last_bag_s = bag_s;
-                    bar.set_message(format!("bag time {bag_s:.1} s"));
-                }
+            };
+            if let Some(tx) = senders.get(key) {
+                // Blocks while the topic's queue is full (at --max: its window is in flight).
+                // An error means the thread has stopped (Ctrl-C).
+                let _ = tx.send(job);
             }
         }
+        drop(senders);
+        threads
+            .into_iter()
+            .map(|(topic, t)| {
+                t.join()
+                    .map(|s| (topic.clone(), s))
+                    .map_err(|_| anyhow::anyhow!("the publisher thread of {topic} panicked"))
+            })
+            .collect()
+    })?;
+    let mut last = None;
+    for (topic, s) in per_topic {
+        let name = if topic.is_empty() { CLOCK_TOPIC.to_owned() } else { topic };
+        stats.published += s.published;
+        stats.bytes += s.bytes;
+        stats.clock_ticks += s.ticks;
+        stats.late_ms.extend(s.late_ms);
+        stats.publish_ms.extend(s.publish_ms);
+        if s.skipped > 0 {
+            *stats.skipped.entry(name.clone()).or_default() += s.skipped;
+        }
+        if s.unacknowledged {
+            tracing::warn!(
+                "{name}: not every message was acknowledged by reliable subscribers within {FINAL_ACK_WAIT:?}"
+            );
+            stats.unacknowledged.push(name);
+        }
+        last = last.max(s.finished);
     }
-    stats.elapsed_s = start.elapsed().as_secs_f64();
+    stats.elapsed_s = last.map_or(0.0, |l| l.saturating_duration_since(start).as_secs_f64());
     bar.finish_and_clear();
     Ok(stats)
 }

@@ -140,7 +140,13 @@ pub fn run(args: &RecordArgs) -> Result<()> {
     Ok(())
 }
 
-/// Subscribes to every wanted topic seen on the graph that has no subscription yet.
+/// Subscribes to every wanted topic seen on the graph that has a writer and no subscription
+/// yet.
+///
+/// The type recorded is the type of the topic's writers, never of its readers: every
+/// ros2-client node reads `/clock` as `builtin_interfaces/msg/Time` by itself (its spinner's
+/// sim-time reader), and recording that reader's type would make `/clock` undecodable. A topic
+/// with readers only is subscribed once a writer shows up.
 fn discover(
     node: &mut RosNode,
     named: &BTreeSet<String>,
@@ -148,11 +154,8 @@ fn discover(
     recorded: &mut BTreeMap<String, Recorded>,
     warned: &mut BTreeSet<String>,
 ) {
-    let mut types: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    for t in node.discovered_topics() {
-        types.entry(t.name).or_default().push(t.type_name);
-    }
-    for (topic, mut type_names) in types {
+    let topics: BTreeSet<String> = node.discovered_topics().into_iter().map(|t| t.name).collect();
+    for topic in topics {
         let wanted = if named.is_empty() {
             !INFRASTRUCTURE.contains(&topic.as_str())
         } else {
@@ -161,7 +164,10 @@ fn discover(
         if !wanted || recorded.contains_key(&topic) {
             continue;
         }
-        type_names.dedup();
+        let mut type_names = node.writer_type_names(&topic);
+        if type_names.is_empty() {
+            continue;
+        }
         if type_names.len() > 1 && warned.insert(format!("types {topic}")) {
             tracing::warn!("{topic} is published with several types ({}); recording {}", type_names.join(", "), type_names[0]);
         }
