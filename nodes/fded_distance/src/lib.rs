@@ -1,5 +1,6 @@
 //! The `fded_distance` node: a thin ROS 2 adapter around fDED (thesis Sec. 5.1.2,
-//! [`cowork_fded`]), on the wgpu path when a Vulkan adapter exists and the CPU otherwise.
+//! [`cowork_fded`]), on the wgpu path when a hardware Vulkan adapter exists and the CPU
+//! otherwise (a software adapter is used only when `backend: gpu` asks for it).
 //!
 //! Inputs: `/camera/depth/image_raw` (sensor_msgs/Image, `32FC1` m or `16UC1` mm; sensor-data
 //! QoS), `/camera/depth/camera_info` (sensor_msgs/CameraInfo), `/joint_states`
