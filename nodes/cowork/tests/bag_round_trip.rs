@@ -59,6 +59,8 @@ fn extra_publishers(domain: u16, seconds: f64) -> anyhow::Result<std::thread::Jo
     let image = node.publisher::<Image>("/camera/depth/image_raw", &qos::reliable())?;
     let thing = node.raw_publisher("/acme/thing", "acme_msgs/msg/Thing", &qos::reliable())?;
     Ok(std::thread::spawn(move || {
+        // The node must outlive its publishers: dropping it takes the DDS participant away.
+        let _node = node;
         let start = Instant::now();
         let mut k = 0u32;
         while start.elapsed().as_secs_f64() < seconds {
@@ -83,7 +85,6 @@ fn extra_publishers(domain: u16, seconds: f64) -> anyhow::Result<std::thread::Jo
 }
 
 #[test]
-#[ignore = "three processes over DDS for about 25 s; run with `cargo test -p cowork --test bag_round_trip -- --ignored`"]
 fn record_play_record_gives_the_same_messages_and_timing() -> TestResult {
     let root = repo_root();
     let dir = tempfile::tempdir()?;
@@ -92,10 +93,15 @@ fn record_play_record_gives_the_same_messages_and_timing() -> TestResult {
     let (a, b) = (domain(0), domain(1));
 
     // The graph on domain a: lwr_sim at 1x (joint states at 1 kHz would make a large bag in a
-    // debug build; 100 Hz keeps the test light), a camera, an unknown type.
+    // debug build; 100 Hz keeps the test light), a camera, an unknown type. lwr_sim's own
+    // 640x480 camera is off: its frames are best effort (sensor-data QoS), so a loaded machine
+    // may lose some in the first recording, and sharing the topic with the reliable test
+    // camera would make the recorder's reader best effort for both; replay of large depth
+    // images is measured by `cowork bag bench`.
     let mut config: LwrSimConfig = cowork_ros::params::load(&root.join("config/lwr_sim.yaml"), "lwr_sim")?;
     config.publish.joint_state_rate_hz = 100.0;
     config.publish.clock_rate_hz = 100.0;
+    config.depth.enabled = false;
     let model = RobotModel::from_urdf_file(&root.join("config/robot/lwr4plus.urdf"))?;
     let scene = Scene::from_file(&root.join("config/scenes/kitchen.yaml"))?;
     let sim = Simulator::new(model, scene, config.simulation.clone())?;
@@ -114,6 +120,11 @@ fn record_play_record_gives_the_same_messages_and_timing() -> TestResult {
         assert!(n > 0, "first bag has no {t}: {:?}", recorded.keys().collect::<Vec<_>>());
     }
     assert_eq!(recorded["/acme/thing"][0].2, "acme_msgs/msg/Thing");
+    // /clock is lwr_sim's rosgraph_msgs/Clock, not the builtin_interfaces/Time reader every
+    // ros2-client node has on /clock.
+    if let Some(clock) = recorded.get("/clock") {
+        assert_eq!(clock[0].2, "rosgraph_msgs/msg/Clock");
+    }
 
     // Replay on domain b while recording it again.
     let rec = cowork(b, &["bag", "record", "-o", second.to_str().unwrap_or_default(), "--duration", "13", "--discovery-interval", "0.2"])?;
