@@ -1,22 +1,27 @@
 //! fDED: fast robot–obstacle distance evaluation in the depth space (thesis Sec. 5.1.2).
 //!
-//! Per depth frame, [`Fded::process`]:
-//! 1. renders the robot's **virtual depth** from its link meshes at the current joints (eq.
-//!    5.14), every pixel labelled with its link;
-//! 2. removes the robot from the real depth (|d − d_r| ≤ δ = 5 cm), the table (points below
-//!    the table plane + margin, base frame) and invalid or background readings;
-//! 3. builds the **robot lattice** (per T_s × T_s tile and link, the robot pixel closest to the
-//!    tile centre) and 4. the **object lattice** (every S_x-th column of every S_y-th row);
+//! Per depth frame, [`Fded::process`] does work proportional to the robot points and the
+//! lattice samples, never to the image's pixels:
+//! 1. moves the **robot points** (every mesh vertex, plus points on long triangles so that no
+//!    two neighbours are more than `robot_point_spacing` apart) to the camera frame and
+//!    projects them (eq. 5.14), each labelled with its link;
+//! 2. **removes the robot** at the object lattice samples only: a sample whose real depth is
+//!    within δ = 5 cm of a link triangle covering it (grown by `robot_margin` px) is the robot;
+//! 3. builds the **robot lattice** (per T_s × T_s tile and link, the robot point closest to the
+//!    tile centre) and 4. the **object lattice** (every S_x-th column of every S_y-th row that
+//!    is valid, not the table and not the robot);
 //! 5. finds, per link, the closest lattice pair under the depth-space distance (eq. 5.15–5.16)
-//!    with the gray area (eq. 5.17); 6. **refines** it over every robot pixel of the winning
-//!    tile (and, our addition, over the real depth around the winning object point);
+//!    with the gray area (eq. 5.17, ending at the table top); 6. **refines** it over every
+//!    robot point of the winning tile (and, our addition, over the real depth around the
+//!    winning object point, classified on demand);
 //! 7. fits the obstacle **normal** by weighted least squares over L = 1 % of the image's points
 //!    around the closest obstacle point, and the obstacle **velocity** from consecutive frames.
 //!
 //! The output ([`FdedOutput`]) is per link — distance, robot point, obstacle point, normal,
 //! obstacle velocity, valid — plus the global minimum, all in the robot base frame. Buffers
 //! ([`Buffers`]) are flat, `bytemuck`-friendly and sized once; with `threads = 1` a frame
-//! allocates nothing after the first. The [`baseline`] module holds the brute force and
+//! allocates nothing after the first. The GPU path ([`gpu`]) shares stages 1–4 and 7 with the
+//! CPU (host side) and runs 5–6 as compute shaders. The [`baseline`] module holds the brute force and
 //! Flacco et al.'s sphere method for the benchmark.
 //!
 //! ```no_run

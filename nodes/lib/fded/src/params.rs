@@ -44,7 +44,8 @@ pub struct FdedParams {
     /// Height of the table plane in the robot base frame (z), m; points below
     /// `table_z + table_margin` are not obstacles. `None` keeps every point.
     pub table_z: Option<f64>,
-    /// Margin above the table plane that still counts as table (noise, thin objects), m.
+    /// Margin above the table plane that still counts as table (noise, thin objects), m. The
+    /// default 3 cm covers a Kinect's depth quantisation on a table 2.5–3 m away (≈ 2.3 cm).
     pub table_margin: f64,
     /// After the thesis's robot-side refinement, also search the real depth at full resolution
     /// within ±S around the closest object lattice point (against the closest robot point,
@@ -79,7 +80,7 @@ impl Default for FdedParams {
             min_depth: 0.1,
             max_depth: 6.0,
             table_z: Some(0.0),
-            table_margin: 0.02,
+            table_margin: 0.03,
             refine_obstacle: true,
             normal_fraction: 0.01,
             normal_sigma: 0.05,

@@ -1,5 +1,7 @@
-//! wgpu compute path of fDED (thesis Sec. 5.1.2): the same stages as the CPU reference, run as
-//! WGSL compute shaders on any Vulkan adapter (Mesa's lavapipe software adapter included).
+//! wgpu compute path of fDED (thesis Sec. 5.1.2): the distance stages (5: lattice minimum, 6:
+//! refinement over the winning tile) as WGSL compute shaders on any Vulkan adapter (Mesa's
+//! lavapipe software adapter included), on the lattices the host builds with the CPU
+//! reference's own stages 1–4; stage 7 also runs on the host.
 //!
 //! [`GpuContext`] owns the device; it is `None` when no adapter exists (or when
 //! `COWORK_FDED_BACKEND=cpu`), and the caller then runs the CPU path.
