@@ -2,7 +2,7 @@
 //! fDED, message and marker fill) beside the bare library call on the same frame: fDED's static
 //! scene at T_s = 32, S = 16 (thesis Table 5.1 defaults), 640×480, as `32FC1` and `16UC1`, on the
 //! CPU and, when a wgpu adapter exists, on the GPU. The difference between `node_*` and
-//! `fded_cpu` is the node's own cost per frame. On Mesa's lavapipe (a CPU rasteriser behind
+//! `fded_cpu` is the node's own cost per frame; `decode_*` is the image-decoding part of it. On Mesa's lavapipe (a CPU rasteriser behind
 //! Vulkan) the `wgpu` figures say nothing about a real GPU; they show the device round trip.
 
 use std::hint::black_box;
@@ -73,6 +73,14 @@ fn bench(c: &mut Criterion) {
             black_box(out.closest)
         })
     });
+
+    // The node's own first step, for the breakdown: decoding the message into metres.
+    let mut depth = cowork_depth::DepthImage::default();
+    for (enc, img) in &images {
+        c.bench_function(&format!("static_decode_{enc}"), |b| {
+            b.iter(|| depth.read_image_msg(black_box(img)).expect("decodes"))
+        });
+    }
 
     let gpu = GpuContext::open().ok().flatten().map(|ctx| ctx.adapter_name().to_owned());
     let mut backends = vec!["cpu"];
