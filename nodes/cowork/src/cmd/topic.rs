@@ -1,5 +1,6 @@
 //! `cowork topic list|echo`: look at live topics over DDS without a ROS installation.
 
+use std::io::Write as _;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -169,9 +170,15 @@ fn discover(node: &RosNode, wait: f64, done: impl Fn(&[TopicInfo]) -> bool) -> R
 fn echo<T: RosMessage>(node: &mut RosNode, topic: &str, qos: &qos::QosProfile, count: Option<usize>) -> Result<()> {
     let sub = node.subscription::<T>(topic, qos)?;
     let mut seen = 0;
+    let mut out = std::io::stdout().lock();
     while !cowork_ros::shutdown::requested() && count.is_none_or(|c| seen < c) {
         if let Some(msg) = sub.recv_timeout(Duration::from_millis(200)) {
-            println!("{}", serde_json::to_string(&msg)?);
+            let line = serde_json::to_string(&msg)?;
+            // A closed pipe (`cowork topic echo ... | head`) ends the echo quietly.
+            match writeln!(out, "{line}").and_then(|()| out.flush()) {
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+                other => other?,
+            }
             seen += 1;
         }
     }
