@@ -27,8 +27,10 @@ pub struct RecordArgs {
     /// How often to look for new topics and publishers (s).
     #[arg(long, default_value_t = 0.5)]
     pub discovery_interval: f64,
-    /// History depth of each subscription (samples buffered per topic between polls).
-    #[arg(long, default_value_t = 100)]
+    /// History depth of each subscription (samples buffered per topic between polls). Deep
+    /// enough for a `cowork bag play --max` burst while a zstd chunk of depth images is being
+    /// compressed (a cap, not an allocation: the recorder takes samples as they come).
+    #[arg(long, default_value_t = 1000)]
     pub depth: usize,
 }
 
