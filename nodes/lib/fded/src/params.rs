@@ -75,7 +75,7 @@ impl Default for FdedParams {
             step_x: 16,
             step_y: 16,
             robot_delta: 0.05,
-            robot_margin: 2.0,
+            robot_margin: 3.0,
             robot_point_spacing: 0.015,
             min_depth: 0.1,
             max_depth: 6.0,
