@@ -14,6 +14,8 @@
 //! bad command is aborted with its reason and the robot held; bad distances (NaN, infinite,
 //! zero normal, unknown link) hold the robot with the reason until valid ones arrive.
 
+pub mod learned;
+
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
 use std::sync::{Arc, Mutex};
@@ -24,7 +26,8 @@ use cowork_ds::goal::Reach;
 use cowork_ds::primitive::{ConstantSpeed, Linear};
 use cowork_ds::{
     ControlInput, ControlOutput, ControllerConfig, Distances, DsController, Fault, HoldReason,
-    HumanInput, HumanMode, HumanState, LinkDistance, MotionCommand, Primitive, Status, Stream,
+    HumanInput, HumanMode, HumanState, LearnedField, LinkDistance, MotionCommand, Primitive, Status,
+    Stream,
 };
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{
@@ -36,6 +39,8 @@ use cowork_robot::{DOF, JointVector, MAX_LINKS, RobotModel};
 use cowork_ros::{RosNode, qos};
 use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
+
+use crate::learned::Learned;
 
 /// The `ds_controller: ros__parameters:` block.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -181,8 +186,15 @@ impl Clock {
     }
 }
 
-/// One control step on the latest inputs at time `t` (s). Allocation-free.
-pub fn rt_step(ctl: &mut DsController, inputs: &RtInputs, t: f64, out: &mut ControlOutput) -> RtOutput {
+/// One control step on the latest inputs at time `t` (s); `field` is the learned primitive of
+/// a [`Primitive::Learned`] command. Allocation-free (when the field is).
+pub fn rt_step(
+    ctl: &mut DsController,
+    inputs: &RtInputs,
+    t: f64,
+    field: Option<&mut dyn LearnedField>,
+    out: &mut ControlOutput,
+) -> RtOutput {
     let stale_after = ctl.config().stale_after_s;
     let Some((q, q_stamp)) = inputs.joints else {
         return RtOutput {
@@ -210,7 +222,7 @@ pub fn rt_step(ctl: &mut DsController, inputs: &RtInputs, t: f64, out: &mut Cont
             human: inputs.human,
         };
         // A fault is reported through `out.status` (Held with the fault).
-        let _ = ctl.step(&input, out);
+        let _ = ctl.step_with_field(&input, field, out);
     }
     RtOutput {
         time: t,
@@ -222,6 +234,17 @@ pub fn rt_step(ctl: &mut DsController, inputs: &RtInputs, t: f64, out: &mut Cont
     }
 }
 
+/// Learned primitives handed between the ROS side and the real-time loop: the model of
+/// command `id` goes in through `fields`; the loop returns replaced ones through `trash`, so
+/// that it never frees memory either.
+#[derive(Debug)]
+pub struct FieldChannels {
+    /// (command id, decoded model), ROS side → loop.
+    pub fields: Receiver<(u32, Box<Learned>)>,
+    /// Replaced models, loop → ROS side (dropped there).
+    pub trash: SyncSender<Box<Learned>>,
+}
+
 /// The real-time loop: one [`rt_step`] per period of `clock` until `stop`. With the wall clock
 /// it sleeps to absolute deadlines; with `/clock` it steps once per period of simulated time.
 /// Outputs that do not fit the channel are dropped (the ROS side only needs the newest).
@@ -231,7 +254,9 @@ pub fn rt_loop(
     outputs: SyncSender<RtOutput>,
     clock: Clock,
     stop: Arc<AtomicBool>,
+    channels: FieldChannels,
 ) {
+    let mut field: Option<(u32, Box<Learned>)> = None;
     let period = ctl.config().period_s;
     let mut out = ControlOutput::default();
     let start = Instant::now();
@@ -260,8 +285,20 @@ pub fn rt_loop(
         }
         let Some(t) = clock.now() else { continue };
         last_t = t;
+        while let Ok(new) = channels.fields.try_recv() {
+            if let Some((_, old)) = field.replace(new) {
+                // Full trash (cannot happen: the ROS side drains it): keep the old one alive.
+                if let Err(std::sync::mpsc::TrySendError::Full(old)) = channels.trash.try_send(old) {
+                    std::mem::forget(old);
+                }
+            }
+        }
         let snapshot = inputs.read();
-        let o = rt_step(&mut ctl, &snapshot, t, &mut out);
+        let f = match &mut field {
+            Some((id, m)) if *id == snapshot.command.id => Some(&mut **m as &mut dyn LearnedField),
+            _ => None,
+        };
+        let o = rt_step(&mut ctl, &snapshot, t, f, &mut out);
         let _ = outputs.try_send(o);
     }
 }
@@ -371,9 +408,11 @@ impl Adapter {
         Ok(HumanState { present: msg.present, mode, stopped: msg.stopped })
     }
 
-    /// `/motion/command` → the motion, or why it cannot run.
-    pub fn command(&self, msg: &MotionCommandMsg) -> Result<MotionCommand, Rejection> {
+    /// `/motion/command` → the motion (with its decoded model for DMP / GMR / C-GMR), or why
+    /// it cannot run.
+    pub fn command(&self, msg: &MotionCommandMsg) -> Result<(MotionCommand, Option<Learned>), Rejection> {
         let bad = |reason: String| Err(Rejection { reason });
+        let mut model = None;
         let primitive = match msg.kind {
             MotionCommandMsg::KIND_LINEAR => {
                 let gain = msg.parameters.first().copied().unwrap_or(self.default_linear_gain);
@@ -386,14 +425,16 @@ impl Adapter {
             }
             MotionCommandMsg::KIND_HOLD => Primitive::Hold,
             k @ (MotionCommandMsg::KIND_DMP | MotionCommandMsg::KIND_GMR | MotionCommandMsg::KIND_CGMR) => {
-                return bad(format!(
-                    "primitive kind {k} ({}) is not executed by ds_controller; send KIND_LINEAR or KIND_CONSTANT_SPEED",
-                    match k {
-                        MotionCommandMsg::KIND_DMP => "DMP",
-                        MotionCommandMsg::KIND_GMR => "GMR",
-                        _ => "C-GMR",
-                    }
-                ));
+                let kind = match k {
+                    MotionCommandMsg::KIND_DMP => "dmp",
+                    MotionCommandMsg::KIND_GMR => "gmr",
+                    _ => "cgmr",
+                };
+                match learned::decode(kind, &msg.parameters_json) {
+                    Ok(m) => model = Some(m),
+                    Err(e) => return bad(format!("primitive kind {k} ({kind}): {e}")),
+                }
+                Primitive::Learned
             }
             k => return bad(format!("unknown primitive kind {k}")),
         };
@@ -420,7 +461,7 @@ impl Adapter {
         {
             return bad(e.to_string());
         }
-        Ok(MotionCommand { id: msg.id, primitive, goal, orientation, end_effector_avoidance: true })
+        Ok((MotionCommand { id: msg.id, primitive, goal, orientation, end_effector_avoidance: true }, model))
     }
 
     /// A reason for a status message: the controller's fault with link names.
@@ -477,12 +518,15 @@ pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunO
     let clock = if params.use_sim_time { Clock::Sim(Arc::new(AtomicI64::new(-1))) } else { Clock::Wall };
     let inputs = Arc::new(Mailbox::new(RtInputs::default()));
     let (tx, rx) = std::sync::mpsc::sync_channel::<RtOutput>(256);
+    let (field_tx, field_rx) = std::sync::mpsc::sync_channel::<(u32, Box<Learned>)>(4);
+    let (trash_tx, trash_rx) = std::sync::mpsc::sync_channel::<Box<Learned>>(16);
     let rt_stop = Arc::new(AtomicBool::new(false));
     let rt = {
         let (inputs, clock, stop) = (Arc::clone(&inputs), clock.clone(), Arc::clone(&rt_stop));
+        let channels = FieldChannels { fields: field_rx, trash: trash_tx };
         std::thread::Builder::new()
             .name("ds_controller-rt".into())
-            .spawn(move || rt_loop(ctl, inputs, tx, clock, stop))?
+            .spawn(move || rt_loop(ctl, inputs, tx, clock, stop, channels))?
     };
     tracing::info!(
         "ds_controller running at {:.0} Hz ({} time), watchdog {:.3} s",
@@ -497,6 +541,8 @@ pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunO
         cmd_sub: &cmd_sub,
         vel_pub: &vel_pub,
         status_pub: &status_pub,
+        field_tx: &field_tx,
+        trash_rx: &trash_rx,
     });
     rt_stop.store(true, Ordering::Relaxed);
     if rt.join().is_err() {
@@ -515,6 +561,8 @@ struct ServeIo<'a> {
     cmd_sub: &'a cowork_ros::Subscription<MotionCommandMsg>,
     vel_pub: &'a cowork_ros::Publisher<Float64MultiArray>,
     status_pub: &'a cowork_ros::Publisher<MotionStatus>,
+    field_tx: &'a SyncSender<(u32, Box<Learned>)>,
+    trash_rx: &'a Receiver<Box<Learned>>,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -580,11 +628,17 @@ fn serve(
                 Err(r) => tracing::warn!("/human/state rejected: {}", r.reason),
             }
         }
+        // Models the loop replaced are freed here, not on the real-time thread.
+        while io.trash_rx.try_recv().is_ok() {}
         while let Some(m) = io.cmd_sub.take() {
             match adapter.command(&m) {
-                Ok(c) => {
+                Ok((c, model)) => {
                     tracing::info!("motion command {} {:?} → ({:.3}, {:.3}, {:.3}) {}", c.id, c.primitive, c.goal.x, c.goal.y, c.goal.z, m.label);
                     aborted = None;
+                    // The model first: the loop finds it when it sees the command.
+                    if let Some(model) = model {
+                        io.field_tx.send((c.id, Box::new(model))).map_err(|_| anyhow::anyhow!("the real-time loop stopped"))?;
+                    }
                     inputs.update(|i| i.command = c);
                 }
                 Err(r) => {

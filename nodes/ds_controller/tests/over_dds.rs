@@ -226,6 +226,45 @@ fn lwr_sim_and_ds_controller_reach_a_goal() {
     assert!(err < 0.01, "TCP {err} m from the goal");
     let s = g.client.last_status.as_ref().expect("status");
     assert!(s.goal_error < 0.01 && s.reason.is_empty(), "{s:?}");
+
+    // A learned primitive (C-GMR fitted here, sent as JSON in parameters_json) to a new goal.
+    let goal2 = goal + nalgebra::Vector3::new(-0.06, -0.10, 0.05);
+    let demos: Vec<cowork_motion::Demonstration> = (0..3)
+        .map(|i| {
+            let t: Vec<f64> = (0..101).map(|k| k as f64 * 0.02).collect();
+            let a = 0.04 + 0.01 * i as f64;
+            let pos = t.iter().flat_map(|t| {
+                let s = (1.0 - t / 2.0).powi(2);
+                [a * s, 0.10 * s, -0.05 * s]
+            });
+            cowork_motion::Demonstration::new(3, t.clone(), pos.collect(), None).expect("demo")
+        })
+        .collect();
+    let opts = cowork_motion::model::FitOptions {
+        components: cowork_motion::Components::Fixed(2),
+        ..Default::default()
+    };
+    let cgmr = cowork_motion::model::Model::fit(cowork_motion::model::ModelKind::Cgmr, &demos, &opts).expect("fit");
+    g.client
+        .command
+        .publish(MotionCommand {
+            id: 2,
+            kind: MotionCommand::KIND_CGMR,
+            label: "test cgmr".into(),
+            parameters_json: serde_json::to_string(&cgmr).expect("json"),
+            goal: Pose {
+                position: Point { x: goal2.x, y: goal2.y, z: goal2.z },
+                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+            },
+            hold_orientation: true,
+            ..Default::default()
+        })
+        .expect("pub");
+    let ok = g.client.run_for(30.0, true, |c| status_is(c, 2, MotionStatus::STATE_CONVERGED));
+    let err = (g.tcp() - goal2).norm();
+    eprintln!("C-GMR over DDS: converged {ok}, TCP error {err:.4} m");
+    assert!(ok, "C-GMR command did not converge; last {:?}", g.client.last_status);
+    assert!(err < 0.01, "TCP {err} m from the C-GMR goal");
 }
 
 #[test]

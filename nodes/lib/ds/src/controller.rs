@@ -8,7 +8,7 @@ use crate::modulation::{
     EPSILON, Escape, EscapeConfig, influence_weight, modulate, orthonormal_basis,
     weighted_eigenvalues, weighted_modulation_matrix_in_basis,
 };
-use crate::primitive::Primitive;
+use crate::primitive::{LearnedField, Primitive};
 use crate::scaling::{HumanState, ScalingConfig};
 use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
@@ -433,6 +433,8 @@ pub struct DsController {
     posture_q: JointVector,
     /// Resume ramp in [0, 1]: 0 after a hold, rising to 1 over `resume_time_s`.
     ramp: f64,
+    /// Command id the learned field was last reset for.
+    field_command: Option<u32>,
 }
 
 impl DsController {
@@ -454,6 +456,7 @@ impl DsController {
             held_orientation: UnitQuaternion::identity(),
             posture_q: JointVector::zeros(),
             ramp: 0.0,
+            field_command: None,
             model,
             cfg,
         })
@@ -496,7 +499,24 @@ impl DsController {
         input: &ControlInput,
         out: &mut ControlOutput,
     ) -> std::result::Result<(), Fault> {
-        if let Err(fault) = self.validate(input) {
+        self.step_with_field(input, None, out)
+    }
+
+    /// [`step`](Self::step) for a command whose primitive may be [`Primitive::Learned`]: `field`
+    /// is its f (reset at the first step of each command id). A learned command without a
+    /// field, or a non-finite field velocity, faults and holds. Allocation-free when the field
+    /// is.
+    pub fn step_with_field(
+        &mut self,
+        input: &ControlInput,
+        mut field: Option<&mut dyn LearnedField>,
+        out: &mut ControlOutput,
+    ) -> std::result::Result<(), Fault> {
+        let mut checked = self.validate(input);
+        if checked.is_ok() && matches!(input.command.primitive, Primitive::Learned) && field.is_none() {
+            checked = Err(Fault::BadPrimitive { what: "learned model (none loaded)", value: f64::NAN });
+        }
+        if let Err(fault) = checked {
             self.brake(&input.q, out, HoldReason::Fault(fault));
             return Err(fault);
         }
@@ -534,7 +554,22 @@ impl DsController {
         self.ramp = (self.ramp + ramp_rate).min(1.0);
         let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp;
         d.alpha = alpha;
-        let f = adapted_velocity(&cmd.primitive, &x, &cmd.goal) * alpha;
+        let f = match (&cmd.primitive, field.as_deref_mut()) {
+            (Primitive::Learned, Some(field)) => {
+                if self.field_command != Some(cmd.id) {
+                    self.field_command = Some(cmd.id);
+                    field.reset(&x, &cmd.goal);
+                }
+                let v = field.velocity(&x, &cmd.goal, dt * alpha) * alpha;
+                if !v.iter().all(|c| c.is_finite()) {
+                    let fault = Fault::NonFinite { what: "learned primitive velocity", link: usize::MAX };
+                    self.brake(&input.q, out, HoldReason::Fault(fault));
+                    return Err(fault);
+                }
+                v
+            }
+            _ => adapted_velocity(&cmd.primitive, &x, &cmd.goal) * alpha,
+        };
 
         // End effector: closest obstacle of the links rigidly moved by the last joint.
         let mc = &self.cfg.modulation;

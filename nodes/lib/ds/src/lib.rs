@@ -49,5 +49,5 @@ pub use controller::{
     HoldReason, HumanInput, LinkDistance, ModulationConfig, MotionCommand, Status,
 };
 pub use error::{Error, Fault, Result, Stream};
-pub use primitive::{FirstOrderDs, Primitive};
+pub use primitive::{FirstOrderDs, LearnedField, Primitive};
 pub use scaling::{HumanMode, HumanState};

@@ -15,6 +15,21 @@ pub trait FirstOrderDs {
     fn velocity(&self, x: &Vector3<f64>, goal: &Vector3<f64>) -> Vector3<f64>;
 }
 
+/// A learned, possibly stateful primitive (DMP, GMR-DS, C-GMR of `cowork_motion`), run by
+/// [`crate::DsController::step_with_field`] for a [`Primitive::Learned`] command. It lives
+/// outside the `Copy` command (it owns its model); the real-time side receives it once per
+/// command.
+pub trait LearnedField: Send + std::fmt::Debug {
+    /// Restarts the internal state (phase, activation) for a motion that begins at `x0`
+    /// towards `goal` (m, base frame). Allocation-free.
+    fn reset(&mut self, x0: &Vector3<f64>, goal: &Vector3<f64>);
+
+    /// Desired velocity (m/s, base frame) at `x` for `goal` (m), advancing the internal state
+    /// by `dt` (s; the controller passes α_h-scaled time, so velocity scaling slows a DMP's
+    /// phase too). Allocation-free; a non-finite result holds the robot.
+    fn velocity(&mut self, x: &Vector3<f64>, goal: &Vector3<f64>, dt: f64) -> Vector3<f64>;
+}
+
 /// Linear DS ẋ = k (g − x) (Fig. 5.3–5.6 use k = 2 and k = 3).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -78,6 +93,9 @@ pub enum Primitive {
     ConstantSpeed(ConstantSpeed),
     /// Hold the current position: ẋ = 0 (the robot brakes to rest).
     Hold,
+    /// A learned primitive: f is the [`LearnedField`] handed to
+    /// [`crate::DsController::step_with_field`] (without one the step faults and holds).
+    Learned,
 }
 
 impl Primitive {
@@ -98,7 +116,8 @@ impl FirstOrderDs for Primitive {
         match self {
             Primitive::Linear(l) => l.velocity(x, goal),
             Primitive::ConstantSpeed(c) => c.velocity(x, goal),
-            Primitive::Hold => Vector3::zeros(),
+            // The field is not part of the `Copy` command; see `LearnedField`.
+            Primitive::Hold | Primitive::Learned => Vector3::zeros(),
         }
     }
 }

@@ -1,0 +1,146 @@
+//! Learned primitives of `cowork_motion` (DMP eq. 3.3–3.4, GMR-DS eq. 3.6–3.7, C-GMR
+//! Algorithm 1) as [`cowork_ds::LearnedField`]s, decoded from `MotionCommand.parameters_json`.
+//!
+//! `parameters_json` holds either a model as `cowork_motion::Model::save` writes it (an object
+//! with `"kind": "dmp" | "gmr" | "cgmr"`), or `{"model_file": "PATH"}` naming such a file. The
+//! model must be 3-D (TCP position, m, base frame). Decoding allocates (ROS side); the fields'
+//! `reset` and `velocity` do not (real-time side).
+
+use std::path::Path;
+
+use cowork_ds::LearnedField;
+use cowork_motion::dmp::Dmp;
+use cowork_motion::model::Model;
+use cowork_motion::{Cgmr, GmrDs};
+use nalgebra::Vector3;
+
+/// A decoded learned primitive.
+#[derive(Debug)]
+pub enum Learned {
+    /// ẋ = f_GMR(x − g) (the learned field translated to the goal, eq. 5.2).
+    Gmr(GmrDs),
+    /// C-GMR with its activation ω and clock (eq. 3.13–3.14).
+    Cgmr(CgmrField),
+    /// DMP driven by the measured position (see [`DmpField`]).
+    Dmp(DmpField),
+}
+
+/// C-GMR state: activation ω and time since the start of the motion.
+#[derive(Debug)]
+pub struct CgmrField {
+    model: Cgmr,
+    omega: f64,
+    t: f64,
+    started: bool,
+}
+
+/// A DMP whose transformation system is fed the measured TCP position x (so modulation and
+/// saturation deviations are corrected) and integrates its own scaled velocity v and phase s:
+/// v̇ = K(g − x) − D v − K(g − x₀)s + K f(s), ṡ = −γ s; ẋ_desired = v.
+#[derive(Debug)]
+pub struct DmpField {
+    model: Dmp,
+    x0: Vector3<f64>,
+    v: Vector3<f64>,
+    s: f64,
+}
+
+/// Decodes `parameters_json` for a command of kind `kind` ("dmp", "gmr" or "cgmr").
+pub fn decode(kind: &str, parameters_json: &str) -> Result<Learned, String> {
+    if parameters_json.trim().is_empty() {
+        return Err(format!(
+            "{kind} command without a model: parameters_json must hold a cowork_motion model or {{\"model_file\": PATH}}"
+        ));
+    }
+    let value: serde_json::Value =
+        serde_json::from_str(parameters_json).map_err(|e| format!("parameters_json is not JSON: {e}"))?;
+    let model = if let Some(path) = value.get("model_file") {
+        let path = path.as_str().ok_or("parameters_json: model_file must be a string")?;
+        Model::load(Path::new(path)).map_err(|e| format!("model_file {path}: {e}"))?
+    } else {
+        serde_json::from_value::<Model>(value).map_err(|e| format!("parameters_json is not a {kind} model: {e}"))?
+    };
+    if model.kind() != kind {
+        return Err(format!("command kind {kind} but the model is a {} model", model.kind()));
+    }
+    if model.dim() != 3 {
+        return Err(format!("the {kind} model is {}-D; the controller needs a 3-D (TCP position) model", model.dim()));
+    }
+    Ok(match model {
+        Model::Gmr(m) => Learned::Gmr(m),
+        Model::Cgmr(m) => Learned::Cgmr(CgmrField { model: m, omega: 0.0, t: 0.0, started: false }),
+        Model::Dmp(m) => {
+            if !(m.stiffness > 0.0 && m.damping >= 0.0 && m.basis.gamma > 0.0) {
+                return Err("DMP with non-positive stiffness, damping or phase decay".into());
+            }
+            Learned::Dmp(DmpField { model: m, x0: Vector3::zeros(), v: Vector3::zeros(), s: 1.0 })
+        }
+        Model::Hmm(_) => return Err("HMM primitives are not executed by ds_controller".into()),
+    })
+}
+
+fn nan3() -> Vector3<f64> {
+    Vector3::repeat(f64::NAN)
+}
+
+impl LearnedField for Learned {
+    fn reset(&mut self, x0: &Vector3<f64>, _goal: &Vector3<f64>) {
+        match self {
+            Learned::Gmr(_) => {}
+            Learned::Cgmr(c) => {
+                c.omega = 0.0;
+                c.t = 0.0;
+                c.started = false;
+            }
+            Learned::Dmp(d) => {
+                d.x0 = *x0;
+                d.v = Vector3::zeros();
+                d.s = 1.0;
+            }
+        }
+    }
+
+    fn velocity(&mut self, x: &Vector3<f64>, goal: &Vector3<f64>, dt: f64) -> Vector3<f64> {
+        let mut out = [0.0; 3];
+        match self {
+            Learned::Gmr(m) => {
+                if m.velocity_towards(x.as_slice(), goal.as_slice(), &mut out).is_err() {
+                    return nan3();
+                }
+            }
+            Learned::Cgmr(c) => {
+                let rel = x - goal;
+                let omega = c.omega;
+                let Ok(mut act) = c.model.velocity_with(rel.as_slice(), omega, &mut out) else { return nan3() };
+                if !c.started {
+                    // ω starts at c(x₀), as `cowork_motion::CgmrRunner` does.
+                    c.started = true;
+                    c.omega = act;
+                    if act != omega && c.model.velocity_with(rel.as_slice(), act, &mut out).is_err() {
+                        return nan3();
+                    }
+                } else if !act.is_finite() {
+                    act = 1.0;
+                }
+                c.t += dt;
+                c.omega = if c.t >= c.model.t_max {
+                    1.0
+                } else {
+                    act + (c.omega - act) * (-c.model.config.gamma * dt).exp()
+                };
+            }
+            Learned::Dmp(d) => {
+                let m = &d.model;
+                let mut f = [0.0; 3];
+                m.forcing(d.s, &mut f);
+                let f = Vector3::from(f);
+                let a = (goal - x) * m.stiffness - d.v * m.damping - (goal - d.x0) * (m.stiffness * d.s)
+                    + f * m.stiffness;
+                d.v += a * dt;
+                d.s *= (-m.basis.gamma * dt).exp();
+                return d.v;
+            }
+        }
+        Vector3::from(out)
+    }
+}

@@ -1,0 +1,189 @@
+//! DMP / GMR / C-GMR commands: a model learned with `cowork_motion` travels in
+//! `MotionCommand.parameters_json` (or as a file named there), the adapter decodes it, and the
+//! controller runs it through `DsController::step_with_field` on the LWR (kinematic closed
+//! loop, no DDS) to a goal that is not the demonstrated one (goal adaptation, eq. 5.2).
+//! Malformed models are rejected with a reason.
+
+use std::path::PathBuf;
+
+use cowork_ds::{
+    ControlInput, ControlOutput, Distances, DsController, HumanInput, HumanState, LearnedField,
+    Primitive,
+};
+use cowork_motion::model::{FitOptions, Model, ModelKind};
+use cowork_motion::{Components, Demonstration};
+use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion};
+use cowork_msgs::msg::MotionCommand as MotionCommandMsg;
+use cowork_robot::{JointVector, RobotModel};
+use ds_controller::{Adapter, Params};
+use nalgebra::Vector3;
+
+fn lwr() -> RobotModel {
+    let urdf = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/robot/lwr4plus.urdf");
+    RobotModel::from_urdf_file(urdf).expect("URDF")
+}
+
+fn q_start() -> JointVector {
+    JointVector::from_row_slice(&[0.0, 0.5, 0.0, -1.3, 0.0, 0.8, 0.0])
+}
+
+/// Three demonstrations in the TCP frame of motion, curved, ending at the origin, 2 s at 100 Hz
+/// (positions m relative to the target).
+fn demos() -> Vec<Demonstration> {
+    [(0.20, 0.10, 0.05), (0.22, 0.06, 0.08), (0.18, 0.12, 0.02)]
+        .iter()
+        .map(|&(a, b, c)| {
+            let n = 201;
+            let t: Vec<f64> = (0..n).map(|i| i as f64 * 0.01).collect();
+            let pos = t
+                .iter()
+                .flat_map(|&t| {
+                    let s = (1.0 - t / 2.0).powi(2);
+                    // A bend: the y part decays later than x.
+                    let y = b * s * (1.0 + 0.5 * (std::f64::consts::PI * t / 2.0).sin());
+                    [a * s, y, c * s]
+                })
+                .collect();
+            Demonstration::new(3, t, pos, None).expect("demo")
+        })
+        .collect()
+}
+
+fn fit(kind: ModelKind) -> Model {
+    let d = demos();
+    let opts = FitOptions { components: Components::Fixed(3), ..FitOptions::default() };
+    let data = if kind == ModelKind::Dmp { &d[..1] } else { &d[..] };
+    Model::fit(kind, data, &opts).expect("fit")
+}
+
+fn command(id: u32, kind: u8, goal: Vector3<f64>, json: String) -> MotionCommandMsg {
+    MotionCommandMsg {
+        id,
+        kind,
+        parameters_json: json,
+        goal: Pose {
+            position: Point { x: goal.x, y: goal.y, z: goal.z },
+            orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+        },
+        hold_orientation: true,
+        ..Default::default()
+    }
+}
+
+/// Runs the command in a kinematic loop (q += q̇ dt) for `seconds`; returns the final and the
+/// smallest TCP error (m) and the largest commanded TCP speed (m/s).
+fn run(model: &RobotModel, msg: &MotionCommandMsg, seconds: f64) -> (f64, f64, f64) {
+    let adapter = Adapter::new(model, &Params::default());
+    let (cmd, learned) = adapter.command(msg).expect("command accepted");
+    assert_eq!(cmd.primitive, Primitive::Learned);
+    let mut field = learned.expect("a decoded model");
+    let mut ctl = DsController::new(model.clone(), Params::default().controller).expect("controller");
+    let mut out = ControlOutput::default();
+    let mut q = q_start();
+    let dt = ctl.config().period_s;
+    let mut max_speed: f64 = 0.0;
+    let mut min_err = f64::INFINITY;
+    let steps = (seconds / dt) as usize;
+    for k in 0..steps {
+        let t = k as f64 * dt;
+        let input = ControlInput {
+            time: t,
+            q,
+            command: cmd,
+            distances: Distances::clear(t),
+            human: HumanInput { stamp: t, state: HumanState::default() },
+        };
+        ctl.step_with_field(&input, Some(&mut field as &mut dyn LearnedField), &mut out)
+            .expect("valid step");
+        max_speed = max_speed.max(out.diagnostics.ee_velocity.norm());
+        min_err = min_err.min(out.diagnostics.goal_error_m);
+        q += out.qdot * dt;
+        if std::env::var_os("LEARNED_DEBUG").is_some() && k % 500 == 0 {
+            eprintln!("t {t:.1} err {:.4} f {:?} status {:?}", out.diagnostics.goal_error_m, out.diagnostics.ee_velocity.as_slice(), out.status);
+        }
+    }
+    let x = model.link_pose(&q, model.tip_link()).translation.vector;
+    ((x - cmd.goal).norm(), min_err, max_speed)
+}
+
+#[test]
+fn learned_primitives_reach_a_new_goal() {
+    let model = lwr();
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    // The demonstrations start ≈ 0.23 m from their target; the goal here is elsewhere.
+    let goal = x0 + Vector3::new(-0.15, -0.12, -0.08);
+    for (kind, msg_kind) in [
+        (ModelKind::Gmr, MotionCommandMsg::KIND_GMR),
+        (ModelKind::Cgmr, MotionCommandMsg::KIND_CGMR),
+        (ModelKind::Dmp, MotionCommandMsg::KIND_DMP),
+    ] {
+        let json = serde_json::to_string(&fit(kind)).expect("model JSON");
+        let (err, min_err, vmax) = run(&model, &command(1, msg_kind, goal, json), 8.0);
+        eprintln!("{kind:?}: final TCP error {err:.4} m (closest {min_err:.4} m), max commanded speed {vmax:.3} m/s");
+        assert!(vmax > 0.02 && vmax.is_finite(), "{kind:?}: {vmax}");
+        if kind == ModelKind::Gmr {
+            // Plain GMR-DS has no stability guarantee away from the demonstrations (the reason
+            // for C-GMR, Sec. 3.1.3): it must bring the TCP near the goal, not keep it there.
+            assert!(min_err < 0.05, "{kind:?}: never within 5 cm of the goal ({min_err} m)");
+        } else {
+            assert!(err < 0.01, "{kind:?}: {err} m from the goal");
+        }
+    }
+}
+
+#[test]
+fn a_model_file_can_be_named() {
+    let model = lwr();
+    let dir = std::env::temp_dir().join(format!("ds_controller_learned_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let path = dir.join("cgmr.json");
+    fit(ModelKind::Cgmr).save(&path).expect("save");
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    let json = serde_json::json!({ "model_file": path }).to_string();
+    let (err, _, _) = run(&model, &command(2, MotionCommandMsg::KIND_CGMR, x0 + Vector3::new(0.1, 0.05, 0.03), json), 8.0);
+    assert!(err < 0.01, "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn malformed_models_are_rejected_with_a_reason() {
+    let model = lwr();
+    let adapter = Adapter::new(&model, &Params::default());
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    let gmr = serde_json::to_string(&fit(ModelKind::Gmr)).expect("json");
+    let two_d = {
+        let d: Vec<Demonstration> = (0..2)
+            .map(|i| {
+                let t: Vec<f64> = (0..50).map(|k| k as f64 * 0.02).collect();
+                let pos = t.iter().flat_map(|t| [(1.0 - t) * (1.0 + i as f64), 1.0 - t]).collect();
+                Demonstration::new(2, t, pos, None).expect("demo")
+            })
+            .collect();
+        let opts = FitOptions { components: Components::Fixed(1), ..FitOptions::default() };
+        serde_json::to_string(&Model::fit(ModelKind::Gmr, &d, &opts).expect("fit")).expect("json")
+    };
+    for (kind, json, expected) in [
+        (MotionCommandMsg::KIND_GMR, String::new(), "without a model"),
+        (MotionCommandMsg::KIND_GMR, "{not json".to_owned(), "not JSON"),
+        (MotionCommandMsg::KIND_DMP, gmr.clone(), "the model is a gmr model"),
+        (MotionCommandMsg::KIND_GMR, two_d, "2-D"),
+        (MotionCommandMsg::KIND_CGMR, r#"{"model_file": "/nonexistent/m.json"}"#.to_owned(), "/nonexistent/m.json"),
+    ] {
+        let r = adapter.command(&command(3, kind, x0, json)).expect_err("rejected");
+        assert!(r.reason.contains(expected), "{:?} does not contain {expected:?}", r.reason);
+    }
+    // Without its field a learned command holds the robot with a reason.
+    let (cmd, _) = adapter.command(&command(4, MotionCommandMsg::KIND_GMR, x0, gmr)).expect("ok");
+    let mut ctl = DsController::new(model.clone(), Params::default().controller).expect("controller");
+    let mut out = ControlOutput::default();
+    let input = ControlInput {
+        time: 0.0,
+        q: q_start(),
+        command: cmd,
+        distances: Distances::clear(0.0),
+        human: HumanInput { stamp: 0.0, state: HumanState::default() },
+    };
+    let e = ctl.step(&input, &mut out).expect_err("no field");
+    assert!(e.to_string().contains("learned model"), "{e}");
+    assert!(matches!(out.status, cowork_ds::Status::Held(_)));
+}
