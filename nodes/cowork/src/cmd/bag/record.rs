@@ -2,11 +2,12 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cowork_bag::BagWriter;
+use cowork_bag::{BagWriter, WriteSummary};
 use cowork_ros::raw::RawSubscription;
 use cowork_ros::{NodeConfig, RosNode, qos, shutdown};
 
@@ -36,10 +37,43 @@ pub struct RecordArgs {
 
 struct Recorded {
     sub: RawSubscription,
-    type_name: String,
-    definition: String,
+    topic: Arc<str>,
+    type_name: Arc<str>,
+    definition: Arc<str>,
+    /// Samples taken from DDS (queued for or written to the bag).
     messages: u64,
     bytes: u64,
+}
+
+/// One sample on its way from the recorder loop to the writer thread.
+struct Taken {
+    topic: Arc<str>,
+    type_name: Arc<str>,
+    definition: Arc<str>,
+    /// When DDS received it (ns since the Unix epoch): the MCAP log time.
+    receive_time_ns: u64,
+    /// The writer's source timestamp, else the receive time (ns since the Unix epoch).
+    publish_time_ns: u64,
+    data: Vec<u8>,
+}
+
+/// The writer thread: writes every queued sample until the recorder hangs up or a write fails,
+/// then finishes the bag either way (what was written stays readable). Returns the finish
+/// result and the write error, if any.
+fn write_all(
+    mut writer: BagWriter,
+    queue: std::sync::mpsc::Receiver<Taken>,
+) -> (cowork_bag::Result<WriteSummary>, Option<cowork_bag::BagError>) {
+    let mut write_error = None;
+    for t in queue {
+        if let Err(e) =
+            writer.write_raw(&t.topic, &t.type_name, &t.definition, t.receive_time_ns, t.publish_time_ns, &t.data)
+        {
+            write_error = Some(e);
+            break;
+        }
+    }
+    (writer.finish(), write_error)
 }
 
 /// QoS for a topic nobody has offered yet (named on the command line before discovery).
@@ -64,8 +98,16 @@ pub fn run(args: &RecordArgs) -> Result<()> {
     let depth = args.depth.max(1);
     shutdown::install();
     let mut node = RosNode::new("cowork_bag_recorder", &NodeConfig::default())?;
-    let mut writer = BagWriter::create(&args.output)
+    let writer = BagWriter::create(&args.output)
         .with_context(|| format!("creating bag {}", args.output.display()))?;
+    // Compressing and writing chunks happens on its own thread so taking samples never waits
+    // on it: a burst (`cowork bag play --max`) queues here instead of overflowing the DDS
+    // reader caches. The queue is unbounded on purpose: memory is the price of losing nothing.
+    let (to_writer, from_recorder) = std::sync::mpsc::channel::<Taken>();
+    let writer_thread = std::thread::Builder::new()
+        .name("bag-writer".into())
+        .spawn(move || write_all(writer, from_recorder))
+        .context("starting the bag writer thread")?;
     let named: BTreeSet<String> = args.topics.iter().cloned().collect();
     let mut recorded: BTreeMap<String, Recorded> = BTreeMap::new();
     let mut warned: BTreeSet<String> = BTreeSet::new();
@@ -73,7 +115,6 @@ pub fn run(args: &RecordArgs) -> Result<()> {
     let end = args.duration.map(|d| start + Duration::from_secs_f64(d));
     let interval = Duration::from_secs_f64(args.discovery_interval);
     let mut next_discovery = start;
-    let mut write_error = None;
     tracing::info!(
         "recording {} to {} (Ctrl-C to stop)",
         if named.is_empty() { "all topics".to_owned() } else { named.iter().cloned().collect::<Vec<_>>().join(" ") },
@@ -87,37 +128,44 @@ pub fn run(args: &RecordArgs) -> Result<()> {
             next_discovery = now + interval;
         }
         let mut got = 0usize;
+        let mut writer_gone = false;
         for (topic, r) in &mut recorded {
             while let Some(sample) = r.sub.take() {
                 got += 1;
-                let publish = sample.source_time_ns.unwrap_or(sample.receive_time_ns);
-                if let Err(e) = writer.write_raw(
-                    topic,
-                    &r.type_name,
-                    &r.definition,
-                    sample.receive_time_ns,
-                    publish,
-                    &sample.data,
-                ) {
-                    write_error = Some(e);
-                    break;
-                }
                 r.messages += 1;
                 r.bytes += sample.data.len() as u64;
+                let taken = Taken {
+                    topic: Arc::clone(&r.topic),
+                    type_name: Arc::clone(&r.type_name),
+                    definition: Arc::clone(&r.definition),
+                    receive_time_ns: sample.receive_time_ns,
+                    publish_time_ns: sample.source_time_ns.unwrap_or(sample.receive_time_ns),
+                    data: sample.data,
+                };
+                if to_writer.send(taken).is_err() {
+                    // The writer stopped on an error; it is reported below.
+                    tracing::error!("bag writer stopped; no longer recording ({topic})");
+                    writer_gone = true;
+                    break;
+                }
+            }
+            if writer_gone {
+                break;
             }
         }
-        if write_error.is_some() || (stopping && got == 0) {
+        if writer_gone || (stopping && got == 0) {
             break;
         }
         if got == 0 {
             std::thread::sleep(Duration::from_micros(500));
         }
     }
+    drop(to_writer);
     let elapsed = start.elapsed().as_secs_f64();
-    // Finish even after a write error: what was written stays readable.
-    let summary = writer
-        .finish()
-        .with_context(|| format!("finishing bag {}", args.output.display()))?;
+    let (summary, write_error) = writer_thread
+        .join()
+        .map_err(|_| anyhow::anyhow!("the bag writer thread panicked"))?;
+    let summary = summary.with_context(|| format!("finishing bag {}", args.output.display()))?;
     println!("{:<40}  {:<36}  {:>9}  {:>12}", "topic", "type", "messages", "MB");
     for (topic, r) in &recorded {
         println!(
@@ -190,7 +238,17 @@ fn discover(
         match node.raw_subscription(&topic, &type_name, &qos) {
             Ok(sub) => {
                 tracing::info!("recording {topic} ({type_name})");
-                recorded.insert(topic, Recorded { sub, type_name, definition, messages: 0, bytes: 0 });
+                recorded.insert(
+                    topic.clone(),
+                    Recorded {
+                        sub,
+                        topic: topic.into(),
+                        type_name: type_name.into(),
+                        definition: definition.into(),
+                        messages: 0,
+                        bytes: 0,
+                    },
+                );
             }
             Err(e) => {
                 if warned.insert(format!("sub {topic}")) {
