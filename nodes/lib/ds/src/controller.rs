@@ -509,7 +509,7 @@ impl DsController {
     pub fn step_with_field(
         &mut self,
         input: &ControlInput,
-        mut field: Option<&mut dyn LearnedField>,
+        field: Option<&mut dyn LearnedField>,
         out: &mut ControlOutput,
     ) -> std::result::Result<(), Fault> {
         let mut checked = self.validate(input);
@@ -554,7 +554,7 @@ impl DsController {
         self.ramp = (self.ramp + ramp_rate).min(1.0);
         let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp;
         d.alpha = alpha;
-        let f = match (&cmd.primitive, field.as_deref_mut()) {
+        let f = match (&cmd.primitive, field) {
             (Primitive::Learned, Some(field)) => {
                 if self.field_command != Some(cmd.id) {
                     self.field_command = Some(cmd.id);
