@@ -76,7 +76,31 @@ pub fn transform_vertices(
     near: f32,
     out: &mut Buffers,
 ) {
-    for (l, range) in meshes.link_vertices.iter().enumerate() {
+    let project = |v: &[f32; 4]| if v[2] >= near { cam.project(v) } else { [f32::NAN; 2] };
+    to_camera(
+        &meshes.link_vertices,
+        &meshes.vertices,
+        poses,
+        cam_from_base,
+        &mut out.cam_vertices,
+        &mut out.vertex_uv,
+        project,
+    );
+}
+
+/// The shared loop of [`transform_vertices`] and [`transform_points`]: each link's range of
+/// `points` (link frame, m) to the camera frame in `cam_out` (`[x, y, z, link index]`), and
+/// `project` of it into `uv_out` (px).
+fn to_camera(
+    link_ranges: &[std::ops::Range<usize>],
+    points: &[[f32; 3]],
+    poses: &LinkPoses,
+    cam_from_base: &Isometry3<f64>,
+    cam_out: &mut [RobotPoint],
+    uv_out: &mut [[f32; 2]],
+    project: impl Fn(&RobotPoint) -> [f32; 2],
+) {
+    for (l, range) in link_ranges.iter().enumerate() {
         if range.is_empty() {
             continue;
         }
@@ -84,14 +108,14 @@ pub fn transform_vertices(
         let r: Matrix3<f32> = t.rotation.to_rotation_matrix().matrix().cast();
         let p: Vector3<f32> = t.translation.vector.cast();
         let tag = l as f32;
-        for ((src, dst), uv) in meshes.vertices[range.clone()]
+        for ((src, dst), uv) in points[range.clone()]
             .iter()
-            .zip(&mut out.cam_vertices[range.clone()])
-            .zip(&mut out.vertex_uv[range.clone()])
+            .zip(&mut cam_out[range.clone()])
+            .zip(&mut uv_out[range.clone()])
         {
             let v = r * Vector3::new(src[0], src[1], src[2]) + p;
             *dst = [v.x, v.y, v.z, tag];
-            *uv = if v.z >= near { cam.project(dst) } else { [f32::NAN; 2] };
+            *uv = project(dst);
         }
     }
 }
@@ -275,25 +299,11 @@ pub fn transform_points(
     out: &mut Buffers,
 ) {
     let (umax, vmax) = (cam.width as f32 - 0.5, cam.height as f32 - 0.5);
-    for (l, range) in set.link_points.iter().enumerate() {
-        if range.is_empty() {
-            continue;
-        }
-        let t = cam_from_base * poses.get(l);
-        let r: Matrix3<f32> = t.rotation.to_rotation_matrix().matrix().cast();
-        let p: Vector3<f32> = t.translation.vector.cast();
-        let tag = l as f32;
-        for ((src, dst), uv) in set.points[range.clone()]
-            .iter()
-            .zip(&mut out.cam_points[range.clone()])
-            .zip(&mut out.point_uv[range.clone()])
-        {
-            let v = r * Vector3::new(src[0], src[1], src[2]) + p;
-            *dst = [v.x, v.y, v.z, tag];
-            let q = if v.z >= near { cam.project(dst) } else { [f32::NAN; 2] };
-            *uv = if q[0] >= -0.5 && q[0] < umax && q[1] >= -0.5 && q[1] < vmax { q } else { [f32::NAN; 2] };
-        }
-    }
+    let project = |v: &[f32; 4]| {
+        let q = if v[2] >= near { cam.project(v) } else { [f32::NAN; 2] };
+        if q[0] >= -0.5 && q[0] < umax && q[1] >= -0.5 && q[1] < vmax { q } else { [f32::NAN; 2] }
+    };
+    to_camera(&set.link_points, &set.points, poses, cam_from_base, &mut out.cam_points, &mut out.point_uv, project);
 }
 
 /// Sample pixels `(u0 + i·su, v0 + j·sv)` for `i < nx`, `j < ny`; flags are indexed `j·nx + i`.
