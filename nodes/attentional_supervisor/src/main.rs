@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use attentional_supervisor::{Params, RunOptions};
 use clap::Parser;
-use cowork_ros::{NodeConfig, RosNode};
 use cowork_supervisor::{Ltm, Supervisor};
 
 /// Attentional supervisor (thesis Sec. 4.3, 5.2): plans the next action from `/robot_stream`,
@@ -46,16 +45,7 @@ fn main() -> Result<()> {
     let ltm = Ltm::load(&args.ltm).with_context(|| format!("cannot load the LTM {}", args.ltm.display()))?;
     let supervisor = Supervisor::new(ltm, &args.task, params.attention.clone())
         .with_context(|| format!("cannot allocate task {} from {}", args.task, args.ltm.display()))?;
-    if let Some(d) = args.duration
-        && !(d.is_finite() && d > 0.0)
-    {
-        anyhow::bail!("--duration {d}: must be a positive number of seconds");
-    }
-    cowork_ros::shutdown::install();
-    let node = RosNode::new(
-        "attentional_supervisor",
-        &NodeConfig { use_sim_time: params.use_sim_time, ..NodeConfig::default() },
-    )?;
+    let node = cowork_ros::start_node("attentional_supervisor", params.use_sim_time, args.duration)?;
     let options = RunOptions { params, save_ltm: args.save_ltm, duration_s: args.duration, stop: None };
     attentional_supervisor::run(node, supervisor, &options)?;
     Ok(())

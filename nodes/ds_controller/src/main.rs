@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Parser;
 use cowork_robot::RobotModel;
-use cowork_ros::{NodeConfig, RosNode};
 use ds_controller::{Params, RunOptions};
 
 /// Reactive DS controller (thesis Sec. 5.1.1, 5.1.3) at 1 kHz: goal adaptation, velocity
@@ -37,17 +36,8 @@ fn main() -> Result<()> {
     params
         .validate(&args.params.display().to_string())
         .with_context(|| format!("invalid parameters in {}", args.params.display()))?;
-    if let Some(d) = args.duration
-        && !(d.is_finite() && d > 0.0)
-    {
-        anyhow::bail!("--duration {d}: must be a positive number of seconds");
-    }
     let model = RobotModel::from_urdf_file(&args.urdf)
         .with_context(|| format!("cannot load robot description {}", args.urdf.display()))?;
-    cowork_ros::shutdown::install();
-    let node = RosNode::new(
-        "ds_controller",
-        &NodeConfig { use_sim_time: params.use_sim_time, ..NodeConfig::default() },
-    )?;
+    let node = cowork_ros::start_node("ds_controller", params.use_sim_time, args.duration)?;
     ds_controller::run(node, model, &params, &RunOptions { duration_s: args.duration, stop: None })
 }

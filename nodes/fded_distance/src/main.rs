@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Parser;
 use cowork_robot::RobotModel;
-use cowork_ros::{NodeConfig, RosNode};
 use fded_distance::{FdedNode, Params, RunOptions};
 
 /// fDED: per depth frame on `/camera/depth/image_raw`, the distance of every robot link to the
@@ -44,17 +43,11 @@ fn main() -> Result<()> {
         params.backend = b.clone();
     }
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
-    if let Some(d) = args.duration
-        && !(d.is_finite() && d > 0.0)
-    {
-        anyhow::bail!("--duration {d}: must be a positive number of seconds");
-    }
     let model = RobotModel::from_urdf_file(&params.urdf)
         .with_context(|| format!("cannot load robot description {}", params.urdf))?;
     let use_sim_time = params.use_sim_time;
     let fded = FdedNode::new(model, params)?;
-    cowork_ros::shutdown::install();
-    let node = RosNode::new("fded_distance", &NodeConfig { use_sim_time, ..NodeConfig::default() })?;
+    let node = cowork_ros::start_node("fded_distance", use_sim_time, args.duration)?;
     fded_distance::run(node, fded, &RunOptions { duration_s: args.duration, stop: None })?;
     Ok(())
 }

@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Parser;
 use cowork_robot::RobotModel;
-use cowork_ros::{NodeConfig, RosNode};
 use cowork_sim::{Scene, Simulator};
 use lwr_sim::{LwrSim, LwrSimConfig, Pacing};
 
@@ -49,7 +48,6 @@ fn main() -> Result<()> {
     let sim = Simulator::new(model, scene, config.simulation.clone())
         .with_context(|| format!("scene {} does not fit the robot", args.scene.display()))?;
     let pacing = Pacing::from_args(args.rate, args.max)?;
-    cowork_ros::shutdown::install();
-    let node = RosNode::new("lwr_sim", &NodeConfig::default())?;
+    let node = cowork_ros::start_node("lwr_sim", false, args.duration)?;
     lwr_sim::run(node, LwrSim::new(sim, config), pacing, args.duration)
 }

@@ -46,3 +46,16 @@ pub fn init_logging() {
         .with_writer(std::io::stderr)
         .try_init();
 }
+
+/// The start-up every node binary shares once its own parameters are loaded: checks
+/// `--duration` (s; positive and finite when given), installs the Ctrl-C / SIGTERM handler
+/// ([`shutdown::install`]) and joins the graph as `name`.
+pub fn start_node(name: &str, use_sim_time: bool, duration_s: Option<f64>) -> anyhow::Result<RosNode> {
+    if let Some(d) = duration_s
+        && !(d.is_finite() && d > 0.0)
+    {
+        anyhow::bail!("--duration {d}: must be a positive number of seconds");
+    }
+    shutdown::install();
+    RosNode::new(name, &NodeConfig { use_sim_time, ..NodeConfig::default() })
+}
