@@ -7,8 +7,8 @@ cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
 target="${CARGO_TARGET_DIR:-target}"
 dump="$target/release/examples/fk_dump"
-# A no-op when run.sh has already built the examples.
-cargo build --release -p cowork_robot --example fk_dump 2>&1 | tail -n 1
+# run.sh's own build command (same packages, same features), so a no-op after it.
+cargo build --release --locked --bins --examples 2>&1 | tail -n 1
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 status=0

@@ -10,7 +10,8 @@ cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
 target="${CARGO_TARGET_DIR:-target}"
 tool="$target/release/examples/motion_tool"
-cargo build --release -p cowork_motion --example motion_tool 2>&1 | tail -n 1
+# run.sh's own build command (same packages, same features), so a no-op after it.
+cargo build --release --locked --bins --examples 2>&1 | tail -n 1
 py="$VENV/bin/python"
 # One BLAS thread: fair against our single-threaded EM, and no oversubscription on small machines.
 export OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1

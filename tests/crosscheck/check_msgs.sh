@@ -7,6 +7,6 @@ cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
 target="${CARGO_TARGET_DIR:-target}"
 codec="$target/release/examples/msg_codec"
-# A no-op when run.sh has already built the examples.
-cargo build --release -p cowork_msgs --example msg_codec 2>&1 | tail -n 1
+# run.sh's own build command (same packages, same features), so a no-op after it.
+cargo build --release --locked --bins --examples 2>&1 | tail -n 1
 "$VENV/bin/python" tests/crosscheck/check_msgs.py "$codec" "${MSGS_SEED:-20241122}"

@@ -8,8 +8,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
 target="${CARGO_TARGET_DIR:-target}"
-# A no-op when run.sh has already built the binaries.
-cargo build --release -p cowork --bin cowork 2>&1 | tail -n 1
+# run.sh's own build command (same packages, same features), so a no-op after it.
+cargo build --release --locked --bins --examples 2>&1 | tail -n 1
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
