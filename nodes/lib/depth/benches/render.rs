@@ -2,7 +2,7 @@
 //! at a working pose and a person of 10 capsules reaching over the table).
 //!
 //! ```text
-//! CARGO_TARGET_DIR=target/h-node cargo bench -p cowork_depth --bench render
+//! cargo bench -p cowork_depth --bench render
 //! ```
 //!
 //! * `render/parallel/*`: bands on the rayon pool (all cores);
@@ -46,38 +46,58 @@ fn person() -> Vec<Capsule> {
     ]
 }
 
+/// The stacking scene, the arm at a working pose and a reaching person.
+struct Fixture {
+    model: RobotModel,
+    scene: Scene,
+    objects: Vec<(cowork_sim::Shape, nalgebra::Isometry3<f64>)>,
+    q: JointVector,
+    people: Vec<Capsule>,
+}
+
+impl Fixture {
+    fn new() -> Self {
+        let model = RobotModel::from_urdf_file(repo().join("config/robot/lwr4plus.urdf")).expect("URDF");
+        let scene = Scene::from_file(&repo().join("config/scenes/stacking.yaml")).expect("scene");
+        let objects = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
+        let q = JointVector::from_row_slice(&[0.3, 0.6, 0.0, 1.3, 0.0, 0.8, 0.0]);
+        Self { model, scene, objects, q, people: person() }
+    }
+
+    /// A renderer of the scene on the rayon pool or the calling thread, with or without noise.
+    fn renderer(&self, parallel: bool, noise: bool) -> DepthRenderer {
+        let mut r = DepthRenderer::new(&self.model, &self.scene).expect("renderer");
+        r.set_parallel(parallel);
+        if noise {
+            r.set_noise(Some(KinectNoise::with_seed(1))).expect("noise");
+        }
+        r
+    }
+
+    fn render(&self, r: &mut DepthRenderer, out: &mut DepthImage) {
+        r.render(black_box(&self.q), &self.objects, &self.people, out).expect("render");
+    }
+}
+
 fn bench(c: &mut Criterion) {
-    let model = RobotModel::from_urdf_file(repo().join("config/robot/lwr4plus.urdf")).expect("URDF");
-    let scene = Scene::from_file(&repo().join("config/scenes/stacking.yaml")).expect("scene");
-    let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
-    let q = JointVector::from_row_slice(&[0.3, 0.6, 0.0, 1.3, 0.0, 0.8, 0.0]);
-    let people = person();
+    let f = Fixture::new();
     let mut out = DepthImage::default();
 
     let mut group = c.benchmark_group("render");
     for parallel in [true, false] {
         for noise in [false, true] {
-            let mut r = DepthRenderer::new(&model, &scene).expect("renderer");
-            r.set_parallel(parallel);
-            if noise {
-                r.set_noise(Some(KinectNoise::with_seed(1))).expect("noise");
-            }
+            let mut r = f.renderer(parallel, noise);
             let name = format!(
                 "{}/{}",
                 if parallel { "parallel" } else { "single_thread" },
                 if noise { "kinect_noise" } else { "clean" }
             );
-            group.bench_function(name, |b| {
-                b.iter(|| r.render(black_box(&q), &objects, &people, &mut out).expect("render"))
-            });
+            group.bench_function(name, |b| b.iter(|| f.render(&mut r, &mut out)));
         }
     }
-    let mut r = DepthRenderer::new(&model, &scene).expect("renderer");
-    r.set_parallel(false);
+    let mut r = f.renderer(false, false);
     r.set_layers(Layers::robot_only());
-    group.bench_function("robot_only", |b| {
-        b.iter(|| r.render(black_box(&q), &objects, &people, &mut out).expect("render"))
-    });
+    group.bench_function("robot_only", |b| b.iter(|| f.render(&mut r, &mut out)));
     group.finish();
 }
 
@@ -137,23 +157,13 @@ impl Measurement for ThreadCpuTime {
 }
 
 fn bench_cpu(c: &mut Criterion<ThreadCpuTime>) {
-    let model = RobotModel::from_urdf_file(repo().join("config/robot/lwr4plus.urdf")).expect("URDF");
-    let scene = Scene::from_file(&repo().join("config/scenes/stacking.yaml")).expect("scene");
-    let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
-    let q = JointVector::from_row_slice(&[0.3, 0.6, 0.0, 1.3, 0.0, 0.8, 0.0]);
-    let people = person();
+    let f = Fixture::new();
     let mut out = DepthImage::default();
     let mut group = c.benchmark_group("render_cpu");
     for noise in [false, true] {
-        let mut r = DepthRenderer::new(&model, &scene).expect("renderer");
-        r.set_parallel(false);
-        if noise {
-            r.set_noise(Some(KinectNoise::with_seed(1))).expect("noise");
-        }
+        let mut r = f.renderer(false, noise);
         let name = format!("single_thread/{}", if noise { "kinect_noise" } else { "clean" });
-        group.bench_function(name, |b| {
-            b.iter(|| r.render(black_box(&q), &objects, &people, &mut out).expect("render"))
-        });
+        group.bench_function(name, |b| b.iter(|| f.render(&mut r, &mut out)));
     }
     group.finish();
 }
