@@ -25,6 +25,8 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::raster::DepthBlocks;
+
 /// Label of a pixel that no robot link covers (full-resolution virtual depth, tests and
 /// benchmark only).
 pub const NO_LINK: u8 = u8::MAX;
@@ -115,9 +117,14 @@ pub struct Buffers {
     pub cam_vertices: Vec<RobotPoint>,
     /// Projected mesh vertices `[u, v]`, px (NaN behind the near plane).
     pub vertex_uv: Vec<[f32; 2]>,
-    /// Per chunk of [`TRI_CHUNK`](crate::raster::TRI_CHUNK) triangles: the pixel box
-    /// `[u0, v0, u1, v1]` of its triangles (grown by the removal margin; empty when `u0 > u1`).
+    /// Per triangle chunk ([`TriChunk`](crate::raster::TriChunk)): the pixel box
+    /// `[u0, v0, u1, v1]` of its vertices grown by the removal margin; empty (`u0 > u1`) when
+    /// the chunk is behind the camera or turns every face away from it.
     pub chunk_box: Vec<[f32; 4]>,
+    /// Per triangle chunk: camera-frame depth range `[min, max]` of its vertices, m.
+    pub chunk_z: Vec<[f32; 2]>,
+    /// Per triangle chunk: its bounding sphere in the camera frame, `[x, y, z, radius]`, m.
+    pub chunk_sphere: Vec<[f32; 4]>,
     /// The robot point set in the camera frame, `[x, y, z, link]`, this frame.
     pub cam_points: Vec<RobotPoint>,
     /// Projection `[u, v]` of each robot point, px (NaN when outside the image or behind the
@@ -142,8 +149,19 @@ pub struct Buffers {
     pub lattice_nx: u32,
     /// Object lattice grid size: rows.
     pub lattice_ny: u32,
+    /// Per object lattice sample: its candidate depth (m; 0 where no return, out of range or
+    /// the table), `j · lattice_nx + i`.
+    pub lattice_depth: Vec<f32>,
     /// Per object lattice sample: 1 where robot removal took it (|d − d_r| ≤ δ).
     pub lattice_robot: Vec<u8>,
+    /// Depth ranges per block of the grid robot removal is running on.
+    pub depth_blocks: DepthBlocks,
+    /// A window of classified pixels (obstacle depth, or 0), row-major, for the obstacle-side
+    /// refinement and the normal fit: only the pixels that can change their result are
+    /// candidates (see [`classify_window`](crate::stages::classify_window)).
+    pub window: Vec<f32>,
+    /// Robot removal flags of the window's pixels.
+    pub window_robot: Vec<u8>,
     /// Object lattice: camera ray x of each point, `(u − c_x)/f_x`.
     pub obj_ray_x: Vec<f32>,
     /// Object lattice: camera ray y, `(v − c_y)/f_y`.
@@ -158,11 +176,6 @@ pub struct Buffers {
     pub link_best: Vec<LinkBest>,
     /// Per worker thread: per-link partial minima (merged into `link_best`).
     pub partial_best: Vec<Vec<LinkBest>>,
-    /// A window of classified pixels (obstacle depth or 0), row-major, for the obstacle-side
-    /// refinement and the normal fit.
-    pub window: Vec<f32>,
-    /// Robot removal flags of the window's pixels.
-    pub window_robot: Vec<u8>,
     /// Full-resolution virtual depth d_r (m, 0 = no robot), written by
     /// [`Fded::prepare`](crate::Fded::prepare) only (baselines, tests), not per frame.
     pub virtual_depth: Vec<f32>,
@@ -171,13 +184,15 @@ pub struct Buffers {
     /// Bounding box of the robot's pixels in the full-resolution virtual depth.
     pub robot_box: PixelBox,
     /// Full-resolution filtered depth (obstacle depth or 0), written by
-    /// [`Fded::prepare`](crate::Fded::prepare) only.
+    /// [`Fded::classify_full`](crate::Fded::classify_full) only (baselines, tests).
     pub filtered: Vec<f32>,
+    /// Full-resolution robot removal flags, with [`filtered`](Self::filtered).
+    pub robot_flags: Vec<u8>,
 }
 
 impl Buffers {
     /// Buffers for a `width × height` image, `links` robot links, `vertices` mesh vertices,
-    /// `triangles` mesh triangles, `points` robot points and `threads` workers, for tile size
+    /// `chunks` triangle chunks, `points` robot points and `threads` workers, for tile size
     /// `tile`, object steps `step` and a window of up to `window` pixels.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
@@ -185,7 +200,7 @@ impl Buffers {
         height: u32,
         links: usize,
         vertices: usize,
-        triangles: usize,
+        chunks: usize,
         points: usize,
         threads: usize,
         tile: u32,
@@ -199,7 +214,6 @@ impl Buffers {
         let nx = width.div_ceil(step.0.max(1));
         let ny = height.div_ceil(step.1.max(1));
         let samples = nx as usize * ny as usize;
-        let chunks = triangles.div_ceil(crate::raster::TRI_CHUNK);
         Self {
             width,
             height,
@@ -208,6 +222,8 @@ impl Buffers {
             cam_vertices: vec![[0.0; 4]; vertices],
             vertex_uv: vec![[0.0; 2]; vertices],
             chunk_box: vec![[0.0; 4]; chunks],
+            chunk_z: vec![[0.0; 2]; chunks],
+            chunk_sphere: vec![[0.0; 4]; chunks],
             cam_points: vec![[0.0; 4]; points],
             point_uv: vec![[0.0; 2]; points],
             slot_count: vec![0; slots],
@@ -219,7 +235,11 @@ impl Buffers {
             robot_lattice_info: Vec::with_capacity(points.min(slots)),
             lattice_nx: nx,
             lattice_ny: ny,
+            lattice_depth: vec![0.0; samples],
             lattice_robot: vec![0; samples],
+            depth_blocks: DepthBlocks::new(width, height),
+            window: vec![0.0; window],
+            window_robot: vec![0; window],
             obj_ray_x: Vec::with_capacity(samples),
             obj_ray_y: Vec::with_capacity(samples),
             obj_depth: Vec::with_capacity(samples),
@@ -227,12 +247,11 @@ impl Buffers {
             obj_pixel: Vec::with_capacity(samples),
             link_best: vec![LinkBest::NONE; links],
             partial_best: vec![vec![LinkBest::NONE; links]; threads.max(1)],
-            window: vec![0.0; window],
-            window_robot: vec![0; window],
             virtual_depth: vec![0.0; n],
             labels: vec![NO_LINK; n],
             robot_box: PixelBox::EMPTY,
             filtered: vec![0.0; n],
+            robot_flags: vec![0; n],
         }
     }
 

@@ -6,13 +6,10 @@ use crate::cam::Cam;
 use crate::error::{Error, Result};
 use crate::layout::{Buffers, LinkBest};
 use crate::params::{Backend, FdedParams};
-use crate::raster::{
-    Grid, Removal, RobotMeshes, RobotPointSet, mark_robot, render_virtual_depth, transform_points,
-    transform_vertices,
-};
+use crate::raster::{Removal, RobotMeshes, RobotPointSet, render_virtual_depth, transform_points, transform_vertices, view_chunks};
 use crate::stages::{
-    Classify, Objects, TablePlane, classify_window, gray_depth, lattice_minimum, object_lattice,
-    obstacle_normal, refine_obstacle, refine_slot, remove_robot_at_lattice, robot_lattice,
+    Classify, Objects, TablePlane, classify_full, classify_window, dist2, gray_depth, lattice_minimum, normal_cut2,
+    object_lattice, obstacle_normal, refine_obstacle, refine_slot, remove_robot_at_lattice, robot_lattice,
     window_around,
 };
 use cowork_depth::{DepthImage, Intrinsics};
@@ -153,10 +150,6 @@ pub struct Fded {
     removal: Removal,
     /// Per link this frame: (object pixel, unoriented normal) already fitted.
     normals: Vec<(u32, Option<Vector3<f32>>)>,
-    /// Full-resolution robot removal flags ([`prepare`](Fded::prepare) only).
-    pixel_robot: Vec<u8>,
-    /// The window [`Buffers::window`] holds this frame: `(u0, v0, nw, nh)`.
-    window_key: Option<(u32, u32, u32, u32)>,
 }
 
 /// Half sizes of the windows: obstacle-side refinement (±(S − 1)) and normal fit (L points).
@@ -208,7 +201,7 @@ impl Fded {
             cam.height,
             links,
             meshes.vertices.len(),
-            meshes.triangles.len(),
+            meshes.chunks.len(),
             points.len(),
             params.threads,
             params.tile_size,
@@ -239,7 +232,6 @@ impl Fded {
             delta: params.robot_delta as f32,
             margin: params.robot_margin as f32,
         };
-        let n = cam.width as usize * cam.height as usize;
         Ok(Self {
             model: model.clone(),
             meshes,
@@ -254,8 +246,6 @@ impl Fded {
             classify,
             removal,
             normals: Vec::with_capacity(links),
-            pixel_robot: vec![0; n],
-            window_key: None,
         })
     }
 
@@ -330,43 +320,7 @@ impl Fded {
     pub fn classify_full(&mut self, frame: &Frame<'_>) -> Result<()> {
         self.check(frame)?;
         self.transform(frame);
-        let grid = Grid {
-            u0: 0,
-            v0: 0,
-            su: 1,
-            sv: 1,
-            nx: self.cam.width,
-            ny: self.cam.height,
-        };
-        self.pixel_robot.fill(0);
-        let buf = &mut self.buf;
-        let depth = &frame.depth.data[..];
-        mark_robot(
-            &self.meshes,
-            &buf.cam_vertices,
-            &buf.vertex_uv,
-            0..self.meshes.triangles.len(),
-            &grid,
-            depth,
-            buf.width as usize,
-            &self.removal,
-            [0.0, f32::INFINITY],
-            &mut self.pixel_robot,
-            Some(&mut buf.chunk_box),
-        );
-        let w = buf.width as usize;
-        for (row, ((out, d_row), flags)) in buf
-            .filtered
-            .chunks_exact_mut(w)
-            .zip(depth.chunks_exact(w))
-            .zip(self.pixel_robot.chunks_exact(w))
-            .enumerate()
-        {
-            let ry = buf.ray_y[row];
-            for (((f, &d), &robot), &rx) in out.iter_mut().zip(d_row).zip(flags).zip(&buf.ray_x) {
-                *f = if robot == 0 && self.classify.candidate(d, rx, ry) { d } else { 0.0 };
-            }
-        }
+        classify_full(&self.meshes, &frame.depth.data, &self.classify, &self.removal, &mut self.buf);
         Ok(())
     }
 
@@ -382,6 +336,7 @@ impl Fded {
         let near = self.params.near_clip as f32;
         transform_vertices(&self.meshes, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
         transform_points(&self.points, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
+        view_chunks(&self.meshes, &self.poses, &cam_from_base, self.removal.margin, &mut self.buf);
         self.classify.table = self.params.table_z.map(|z| {
             let m = frame.camera_pose.rotation.to_rotation_matrix();
             let m = m.matrix();
@@ -469,14 +424,13 @@ impl Fded {
         let t0 = Instant::now();
         self.check(frame)?;
         self.transform(frame);
-        self.window_key = None;
         let t1 = Instant::now();
         let depth = &frame.depth.data[..];
         let step = (self.params.step_x, self.params.step_y);
-        remove_robot_at_lattice(&self.meshes, depth, step, &self.removal, &mut self.buf);
+        remove_robot_at_lattice(&self.meshes, depth, step, &self.classify, &self.removal, &mut self.buf);
         let t1b = Instant::now();
         robot_lattice(&mut self.buf, self.params.tile_size, self.model.link_count());
-        object_lattice(&mut self.buf, depth, step, &self.classify);
+        object_lattice(&mut self.buf, step, &self.classify);
         let t2 = Instant::now();
         let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
         Ok(StageTimes {
@@ -551,7 +505,8 @@ impl Fded {
     }
 
     /// The optional obstacle-side refinement (`refine_obstacle`): per link, the obstacle pixels
-    /// within ±(S − 1) px of its object point, classified on demand.
+    /// within ±(S − 1) px of its object point that are closer to its robot point than the
+    /// pair found, classified on demand.
     pub(crate) fn refine_obstacles(&mut self, frame: &Frame<'_>) {
         if !self.params.refine_obstacle || (self.params.step_x == 1 && self.params.step_y == 1) {
             return;
@@ -564,18 +519,35 @@ impl Fded {
                 continue;
             }
             let win = window_around(b.object_pixel, half, self.cam.width, self.cam.height);
-            self.classify_window(depth, win);
-            refine_obstacle(&self.buf, &self.classify, win, &mut b);
+            let rp = self.buf.cam_points[b.robot_point as usize];
+            let (r, k) = ([rp[0], rp[1], rp[2]], self.classify);
+            let keep = |d, rx, ry| k.candidate(d, rx, ry) && dist2(&r, rx, ry, d, k.gray_cap(d, rx, ry)) < b.dist2;
+            classify_window(&self.meshes, depth, &self.removal, win, keep, None, &mut self.buf);
+            refine_obstacle(&self.buf, depth, &self.classify, win, &mut b);
             self.buf.link_best[l] = b;
         }
     }
 
-    /// Classifies window `win` into [`Buffers::window`] unless it already holds it this frame.
-    fn classify_window(&mut self, depth: &[f32], win: (u32, u32, u32, u32)) {
-        if self.window_key != Some(win) {
-            classify_window(&self.meshes, depth, &self.classify, &self.removal, win.0, win.1, win.2, win.3, &mut self.buf);
-            self.window_key = Some(win);
-        }
+    /// The normal of the obstacle surface at camera-frame point `o` (pixel `object_pixel`):
+    /// the window of L pixels around it, keeping the candidates within the fit's cut-off
+    /// radius of `o`; robot removal there needs only the triangles that can reach that ball.
+    fn fit_normal(&mut self, depth: &[f32], object_pixel: u32, o: [f32; 3]) -> Option<Vector3<f32>> {
+        let (_, half) = window_halves(&self.params, self.cam.width, self.cam.height);
+        let win = window_around(object_pixel, (half, half), self.cam.width, self.cam.height);
+        let sigma = self.params.normal_sigma as f32;
+        let (cut2, k) = (normal_cut2(sigma), self.classify);
+        let keep = |d: f32, rx: f32, ry: f32| {
+            let q = [rx * d - o[0], ry * d - o[1], d - o[2]];
+            k.candidate(d, rx, ry) && q[0] * q[0] + q[1] * q[1] + q[2] * q[2] <= cut2
+        };
+        // A triangle removes a pixel within δ of its depth and (growth included) about
+        // 1.5 · margin px of it, i.e. 1.5 · margin · z / f m at depth z ≤ d_o + cut.
+        let reach = cut2.sqrt();
+        let px = (o[2] + reach) / self.cam.fx.min(self.cam.fy);
+        let slack = self.removal.delta + 1.5 * self.removal.margin * px + 1e-3;
+        let focus = [o[0], o[1], o[2], reach + slack];
+        classify_window(&self.meshes, depth, &self.removal, win, keep, Some(focus), &mut self.buf);
+        obstacle_normal(&self.buf, win, o, sigma)
     }
 
     /// Stage 7 and the output: normals, velocities, base-frame points, global minimum.
@@ -585,7 +557,6 @@ impl Fded {
             out.links.clear();
             out.links.extend((0..links).map(LinkDistance::none));
         }
-        let (_, half) = window_halves(&self.params, self.cam.width, self.cam.height);
         let base_from_cam = frame.camera_pose;
         let (alpha, vmax) = (self.params.velocity_smoothing, self.params.max_obstacle_speed);
         let depth = &frame.depth.data[..];
@@ -612,9 +583,8 @@ impl Fded {
             let fitted = match cached {
                 Some(n) => n,
                 None => {
-                    let win = window_around(b.object_pixel, (half, half), self.cam.width, self.cam.height);
-                    self.classify_window(depth, win);
-                    let n = obstacle_normal(&self.buf, win, b.object_pixel, self.params.normal_sigma as f32);
+                    let d0 = depth[op];
+                    let n = self.fit_normal(depth, b.object_pixel, [rx * d0, ry * d0, d0]);
                     self.normals.push((b.object_pixel, n));
                     n
                 }

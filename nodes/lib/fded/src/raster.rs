@@ -18,7 +18,8 @@ use cowork_robot::{LinkPoses, RobotModel};
 use nalgebra::{Isometry3, Matrix3, Vector3};
 
 /// The robot's link meshes, flattened: vertices in their link frames (f32, m) and triangles
-/// with global vertex indices.
+/// with global vertex indices, each link's triangles in spatial (Morton) order and grouped in
+/// [`TriChunk`]s.
 #[derive(Debug, Clone)]
 pub struct RobotMeshes {
     /// Per link: the range of its vertices in `vertices` (empty for links without mesh).
@@ -27,14 +28,44 @@ pub struct RobotMeshes {
     pub vertices: Vec<[f32; 3]>,
     /// Triangles as global vertex indices (counter-clockwise seen from outside).
     pub triangles: Vec<[u32; 3]>,
+    /// Groups of at most [`TRI_CHUNK`] neighbouring triangles of one link: the unit robot
+    /// removal culls by pixel box, depth range and facing.
+    pub chunks: Vec<TriChunk>,
+    /// The distinct vertices of each chunk (global indices; [`TriChunk::vertices`] ranges).
+    pub chunk_vertices: Vec<u32>,
+}
+
+/// Up to [`TRI_CHUNK`] neighbouring triangles of one link, with the bounds that let robot
+/// removal skip them together: a bounding sphere and a cone holding every face normal, both
+/// in the link frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TriChunk {
+    /// Link index.
+    pub link: usize,
+    /// Its triangles in [`RobotMeshes::triangles`].
+    pub triangles: std::ops::Range<usize>,
+    /// Its distinct vertices in [`RobotMeshes::chunk_vertices`].
+    pub vertices: std::ops::Range<usize>,
+    /// Bounding sphere centre, link frame, m.
+    pub centre: [f32; 3],
+    /// Bounding sphere radius, m.
+    pub radius: f32,
+    /// Unit axis of the normal cone (outward), link frame.
+    pub axis: [f32; 3],
+    /// `[cos θ, sin θ]` of the cone's half-angle θ; `cos θ ≤ 0` (θ ≥ 90°) means the chunk is
+    /// never back-facing as a whole.
+    pub cone: [f32; 2],
 }
 
 impl RobotMeshes {
-    /// Collects the meshes of every link of `model`.
+    /// Collects the meshes of every link of `model`, sorts each link's triangles along a
+    /// Morton curve of their centroids and cuts them into chunks of [`TRI_CHUNK`].
     pub fn from_model(model: &RobotModel) -> Self {
         let mut link_vertices = Vec::with_capacity(model.link_count());
         let mut vertices = Vec::with_capacity(model.mesh_vertex_count());
         let mut triangles = Vec::new();
+        let mut chunks = Vec::new();
+        let mut chunk_vertices = Vec::new();
         for l in 0..model.link_count() {
             let start = vertices.len();
             if let Some(mesh) = model.link_mesh(l) {
@@ -44,11 +75,14 @@ impl RobotMeshes {
                         .iter()
                         .map(|p| [p.x as f32, p.y as f32, p.z as f32]),
                 );
-                triangles.extend(
-                    mesh.triangles
-                        .iter()
-                        .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
-                );
+                let first = triangles.len();
+                let mut tris: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| [t[0] + base, t[1] + base, t[2] + base]).collect();
+                sort_morton(&mut tris, &vertices);
+                triangles.extend(tris);
+                for lo in (first..triangles.len()).step_by(TRI_CHUNK) {
+                    let range = lo..(lo + TRI_CHUNK).min(triangles.len());
+                    chunks.push(TriChunk::of(l, range, &triangles, &vertices, &mut chunk_vertices));
+                }
             }
             link_vertices.push(start..vertices.len());
         }
@@ -56,12 +90,82 @@ impl RobotMeshes {
             link_vertices,
             vertices,
             triangles,
+            chunks,
+            chunk_vertices,
         }
     }
 
     /// `true` when no link has a mesh.
     pub fn is_empty(&self) -> bool {
         self.triangles.is_empty()
+    }
+}
+
+/// Sorts triangles by the Morton code of their centroids (10 bits per axis over their
+/// bounding box), so that consecutive triangles are neighbours.
+fn sort_morton(tris: &mut [[u32; 3]], vertices: &[[f32; 3]]) {
+    let centroid = |t: &[u32; 3]| {
+        let [a, b, c] = t.map(|i| vertices[i as usize]);
+        [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)
+    };
+    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for t in tris.iter() {
+        let c = centroid(t);
+        for k in 0..3 {
+            lo[k] = lo[k].min(c[k]);
+            hi[k] = hi[k].max(c[k]);
+        }
+    }
+    let spread = [0, 1, 2].map(|k| (hi[k] - lo[k]).max(1e-9));
+    let spread_bits = |x: u32| (0..10).fold(0u32, |acc, b| acc | (((x >> b) & 1) << (3 * b)));
+    tris.sort_by_cached_key(|t| {
+        let c = centroid(t);
+        let q = [0, 1, 2].map(|k| (((c[k] - lo[k]) / spread[k]) * 1023.0).round().clamp(0.0, 1023.0) as u32);
+        spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+    });
+}
+
+impl TriChunk {
+    /// The chunk of triangles `range` of link `link`; appends its distinct vertices to
+    /// `chunk_vertices`.
+    fn of(
+        link: usize,
+        range: std::ops::Range<usize>,
+        triangles: &[[u32; 3]],
+        vertices: &[[f32; 3]],
+        chunk_vertices: &mut Vec<u32>,
+    ) -> Self {
+        let first = chunk_vertices.len();
+        for t in &triangles[range.clone()] {
+            for &i in t {
+                if !chunk_vertices[first..].contains(&i) {
+                    chunk_vertices.push(i);
+                }
+            }
+        }
+        let p = |i: u32| Vector3::from(vertices[i as usize].map(f64::from));
+        let ids = &chunk_vertices[first..];
+        let centre = ids.iter().map(|&i| p(i)).sum::<Vector3<f64>>() / ids.len() as f64;
+        let radius = ids.iter().map(|&i| (p(i) - centre).norm()).fold(0.0, f64::max);
+        // Degenerate faces are never drawn (back-face test n·v ≥ 0 with n = 0), so they do not
+        // widen the cone.
+        let normals: Vec<Vector3<f64>> = triangles[range.clone()]
+            .iter()
+            .filter_map(|t| ((p(t[1]) - p(t[0])).cross(&(p(t[2]) - p(t[0])))).try_normalize(1e-12))
+            .collect();
+        let axis = normals.iter().sum::<Vector3<f64>>().try_normalize(1e-9).unwrap_or_else(Vector3::z);
+        let cos = normals.iter().map(|n| n.dot(&axis)).fold(1.0f64, f64::min);
+        let cos = if normals.is_empty() { 1.0 } else { cos.clamp(-1.0, 1.0) };
+        Self {
+            link,
+            triangles: range,
+            vertices: first..chunk_vertices.len(),
+            centre: [centre.x as f32, centre.y as f32, centre.z as f32],
+            // Rounding slack: the sphere must hold every f32 vertex.
+            radius: (radius * (1.0 + 1e-5) + 1e-6) as f32,
+            axis: [axis.x as f32, axis.y as f32, axis.z as f32],
+            cone: [cos as f32, (1.0 - cos * cos).max(0.0).sqrt() as f32],
+        }
     }
 }
 
@@ -212,9 +316,8 @@ pub(crate) fn ceil_i(x: f32) -> i32 {
     if (t as f32) < x { t + 1 } else { t }
 }
 
-/// Triangles per chunk of [`Buffers::chunk_box`]: windows only visit chunks whose pixel box
-/// overlaps them.
-pub const TRI_CHUNK: usize = 32;
+/// Triangles per [`TriChunk`].
+pub const TRI_CHUNK: usize = 16;
 
 /// The robot points: per link, the mesh vertices and extra points on long triangles, link
 /// frame (f32, m).
@@ -306,7 +409,7 @@ pub fn transform_points(
     to_camera(&set.link_points, &set.points, poses, cam_from_base, &mut out.cam_points, &mut out.point_uv, project);
 }
 
-/// Sample pixels `(u0 + i·su, v0 + j·sv)` for `i < nx`, `j < ny`; flags are indexed `j·nx + i`.
+/// Sample pixels `(u0 + i·su, v0 + j·sv)` for `i < nx`, `j < ny`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Grid {
     /// First column, px.
@@ -332,155 +435,301 @@ pub struct Removal {
     pub margin: f32,
 }
 
-/// Robot removal at the samples of `grid`: a sample whose real depth d (`depth`, full image
-/// of `width` columns) lies within `δ` of the depth d_r of **any** front-facing link triangle
-/// covering it (not only the nearest one; triangles grown by `margin` px) gets `flags = 1`. Triangles `tris` (indices into
-/// `meshes.triangles`); with `chunk_box`, the pixel box of every chunk of [`TRI_CHUNK`]
-/// triangles in `tris` is written too. Samples with d ≤ 0 or NaN are skipped; `drange` bounds
-/// the samples' depths (m): triangles whose depth range is farther than δ from it are skipped.
-#[allow(clippy::too_many_arguments)]
-pub fn mark_robot(
-    meshes: &RobotMeshes,
-    cam_vertices: &[RobotPoint],
-    vertex_uv: &[[f32; 2]],
-    tris: std::ops::Range<usize>,
-    grid: &Grid,
-    depth: &[f32],
-    width: usize,
-    k: &Removal,
-    drange: [f32; 2],
-    flags: &mut [u8],
-    mut chunk_box: Option<&mut [[f32; 4]]>,
-) {
-    let m = k.margin;
-    let (gu0, gv0, su, sv) = (grid.u0 as f32, grid.v0 as f32, grid.su as f32, grid.sv as f32);
-    let (nx, ny) = (grid.nx as f32, grid.ny as f32);
-    let (isu, isv) = (1.0 / su, 1.0 / sv);
-    let mut cur_chunk = usize::MAX;
-    let mut cbox = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
-    for t in tris {
-        if let Some(cb) = chunk_box.as_deref_mut() {
-            let c = t / TRI_CHUNK;
-            if c != cur_chunk {
-                if cur_chunk != usize::MAX {
-                    cb[cur_chunk] = cbox;
+/// Per chunk this frame ([`Buffers::chunk_box`], [`Buffers::chunk_z`],
+/// [`Buffers::chunk_sphere`]): the pixel box of its projected vertices grown by `margin` px,
+/// the camera-frame depth range of its vertices and its bounding sphere; a chunk whose every
+/// face turns away from the camera (normal cone) gets an empty box (`u0 > u1`). Needs
+/// [`transform_vertices`] first.
+pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isometry3<f64>, margin: f32, out: &mut Buffers) {
+    const CULLED: [f32; 4] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
+    let mut link = usize::MAX;
+    let (mut r, mut p) = (Matrix3::<f32>::identity(), Vector3::<f32>::zeros());
+    for (c, ch) in meshes.chunks.iter().enumerate() {
+        if ch.link != link {
+            link = ch.link;
+            let t = cam_from_base * poses.get(link);
+            r = t.rotation.to_rotation_matrix().matrix().cast();
+            p = t.translation.vector.cast();
+        }
+        let w = r * Vector3::from(ch.centre) + p;
+        out.chunk_sphere[c] = [w.x, w.y, w.z, ch.radius];
+        if ch.cone[0] > 0.0 {
+            // Every face is back-facing when, for every point x of the sphere and normal n of
+            // the cone, n·x ≥ 0 (x from the camera): |w|·cos(φ + θ) ≥ r, φ = ∠(axis, w).
+            let a = r * Vector3::from(ch.axis);
+            let len = w.norm();
+            if len > ch.radius {
+                let cos_phi = a.dot(&w) / len;
+                let sin_phi = (1.0 - cos_phi * cos_phi).max(0.0).sqrt();
+                if cos_phi * ch.cone[0] - sin_phi * ch.cone[1] >= ch.radius / len + 1e-4 {
+                    out.chunk_box[c] = CULLED;
+                    out.chunk_z[c] = [f32::INFINITY, f32::NEG_INFINITY];
+                    continue;
                 }
-                cur_chunk = c;
-                cbox = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
             }
         }
-        let tri = meshes.triangles[t];
-        let (pa, pb, pc) = (vertex_uv[tri[0] as usize], vertex_uv[tri[1] as usize], vertex_uv[tri[2] as usize]);
-        if pa[0].is_nan() || pb[0].is_nan() || pc[0].is_nan() {
-            continue;
+        let (mut b, mut z) = (CULLED, [f32::INFINITY, f32::NEG_INFINITY]);
+        for &i in &meshes.chunk_vertices[ch.vertices.clone()] {
+            let (uv, v) = (out.vertex_uv[i as usize], out.cam_vertices[i as usize]);
+            // NaN (behind the near plane) is ignored by min/max: triangles with such a
+            // corner are skipped anyway.
+            b = [b[0].min(uv[0]), b[1].min(uv[1]), b[2].max(uv[0]), b[3].max(uv[1])];
+            z = [z[0].min(v[2]), z[1].max(v[2])];
         }
-        let umin = pa[0].min(pb[0]).min(pc[0]) - m;
-        let umax = pa[0].max(pb[0]).max(pc[0]) + m;
-        let vmin = pa[1].min(pb[1]).min(pc[1]) - m;
-        let vmax = pa[1].max(pb[1]).max(pc[1]) + m;
-        if chunk_box.is_some() {
-            cbox = [cbox[0].min(umin), cbox[1].min(vmin), cbox[2].max(umax), cbox[3].max(vmax)];
-        }
+        out.chunk_box[c] = [b[0] - margin, b[1] - margin, b[2] + margin, b[3] + margin];
+        out.chunk_z[c] = z;
+    }
+}
+
+/// The robot as robot removal sees it this frame: meshes, projected vertices and chunk
+/// bounds ([`transform_vertices`], [`view_chunks`]).
+#[derive(Debug, Clone, Copy)]
+pub struct RobotView<'a> {
+    /// Meshes and chunks.
+    pub meshes: &'a RobotMeshes,
+    /// [`Buffers::cam_vertices`].
+    pub cam_vertices: &'a [RobotPoint],
+    /// [`Buffers::vertex_uv`].
+    pub vertex_uv: &'a [[f32; 2]],
+    /// [`Buffers::chunk_box`].
+    pub chunk_box: &'a [[f32; 4]],
+    /// [`Buffers::chunk_z`].
+    pub chunk_z: &'a [[f32; 2]],
+    /// [`Buffers::chunk_sphere`].
+    pub chunk_sphere: &'a [[f32; 4]],
+}
+
+/// Depth samples on a [`Grid`]: the candidate depth of sample `(i, j)` (m; 0 where the pixel
+/// is no obstacle candidate — no return, out of range, table) at `depth[j · stride + i]`.
+#[derive(Debug, Clone, Copy)]
+pub struct Samples<'a> {
+    /// Which pixels.
+    pub grid: Grid,
+    /// Candidate depths, m.
+    pub depth: &'a [f32],
+    /// Row stride of `depth` (and of the flags), samples.
+    pub stride: usize,
+}
+
+impl Samples<'_> {
+    /// Sample index range `[lo, hi]` along one axis covering pixel coordinates `[a, b]`
+    /// (first sample `o`, step `s`, `n` samples); `None` when it holds none.
+    #[inline]
+    fn span(a: f32, b: f32, o: u32, s: u32, n: u32) -> Option<(u32, u32)> {
+        let (o, is, nf) = (o as f32, 1.0 / s as f32, n as f32);
         // Clamped in float first: far off-screen corners must not overflow the integer casts.
-        let i_lo = ceil_i(((umin - gu0) * isu).clamp(-1.0, nx)).max(0);
-        let i_hi = floor_i(((umax - gu0) * isu).clamp(-1.0, nx)).min(nx as i32 - 1);
-        let j_lo = ceil_i(((vmin - gv0) * isv).clamp(-1.0, ny)).max(0);
-        let j_hi = floor_i(((vmax - gv0) * isv).clamp(-1.0, ny)).min(ny as i32 - 1);
-        if i_lo > i_hi || j_lo > j_hi {
-            continue;
+        let lo = ceil_i(((a - o) * is).clamp(-1.0, nf)).max(0);
+        let hi = floor_i(((b - o) * is).clamp(-1.0, nf)).min(n as i32 - 1);
+        (lo <= hi).then_some((lo as u32, hi as u32))
+    }
+
+    /// Sample ranges `(i_lo, i_hi, j_lo, j_hi)` inside pixel box `[u0, v0, u1, v1]`.
+    #[inline]
+    fn in_box(&self, b: &[f32; 4]) -> Option<(u32, u32, u32, u32)> {
+        let g = &self.grid;
+        let (i_lo, i_hi) = Self::span(b[0], b[2], g.u0, g.su, g.nx)?;
+        let (j_lo, j_hi) = Self::span(b[1], b[3], g.v0, g.sv, g.ny)?;
+        Some((i_lo, i_hi, j_lo, j_hi))
+    }
+}
+
+/// Target block side of [`DepthBlocks`], px.
+const BLOCK_PX: u32 = 16;
+
+/// The depth range `[min, max]` of the candidate samples in each block of about
+/// [`BLOCK_PX`]² px of a [`Samples`] grid: a chunk or triangle whose depth range (± δ) meets
+/// no block it covers cannot remove anything there and is skipped.
+#[derive(Debug, Clone)]
+pub struct DepthBlocks {
+    /// Samples per block along a row and a column.
+    side: (u32, u32),
+    /// Blocks per row.
+    nbx: u32,
+    /// Per block: `[min, max]` candidate depth, m (`[∞, −∞]` when it holds none).
+    range: Vec<[f32; 2]>,
+}
+
+impl DepthBlocks {
+    /// Blocks for any grid over an image of `width × height` px.
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width.div_ceil(BLOCK_PX / 2) + 1) as usize * (height.div_ceil(BLOCK_PX / 2) + 1) as usize;
+        Self {
+            side: (1, 1),
+            nbx: 0,
+            range: Vec::with_capacity(n),
         }
-        let (a, b, c) = (
-            cam_vertices[tri[0] as usize],
-            cam_vertices[tri[1] as usize],
-            cam_vertices[tri[2] as usize],
-        );
-        // Back faces of the closed, outward-wound link meshes lie behind their front faces,
-        // which cover the same pixels.
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let nrm = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        if nrm[0] * a[0] + nrm[1] * a[1] + nrm[2] * a[2] >= 0.0 {
-            continue;
-        }
-        let area = edge(pa, pb, pc);
-        if area.abs() < 1e-12 {
-            continue;
-        }
-        // With clamped barycentrics the depth stays within the corners' depths.
-        let zlo = a[2].min(b[2]).min(c[2]) - k.delta;
-        let zhi = a[2].max(b[2]).max(c[2]) + k.delta;
-        if zhi < drange[0] || zlo > drange[1] {
-            continue;
-        }
-        let s = area.signum();
-        let len = |a: [f32; 2], b: [f32; 2]| ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
-        // Edge i is opposite corner i; inside (grown) when s · edge ≥ −margin · length.
-        let edges = [(pb, pc, m * len(pb, pc)), (pc, pa, m * len(pc, pa)), (pa, pb, m * len(pa, pb))];
-        let (iza, izb, izc) = (1.0 / a[2], 1.0 / b[2], 1.0 / c[2]);
-        for j in j_lo as u32..=j_hi as u32 {
-            let v = grid.v0 + j * grid.sv;
-            let py = v as f32;
-            let (mut xl, mut xr) = (umin, umax);
-            let mut empty = false;
-            for &(p, q, tol) in &edges {
-                // s · edge(p, q, (x, py)) = alpha · x + beta ≥ −tol
-                let alpha = -s * (q[1] - p[1]);
-                let beta = s * ((q[0] - p[0]) * (py - p[1]) + (q[1] - p[1]) * p[0]);
-                if alpha > 0.0 {
-                    xl = xl.max((-tol - beta) / alpha);
-                } else if alpha < 0.0 {
-                    xr = xr.min((-tol - beta) / alpha);
-                } else if beta < -tol {
-                    empty = true;
+    }
+
+    /// Recomputes the blocks of `s` (no allocation for grids over the image it was built for).
+    pub fn build(&mut self, s: &Samples<'_>) {
+        let g = &s.grid;
+        self.side = ((BLOCK_PX / g.su.max(1)).max(1), (BLOCK_PX / g.sv.max(1)).max(1));
+        self.nbx = g.nx.div_ceil(self.side.0);
+        let nby = g.ny.div_ceil(self.side.1);
+        self.range.clear();
+        self.range.resize(self.nbx as usize * nby as usize, [f32::INFINITY, f32::NEG_INFINITY]);
+        for j in 0..g.ny as usize {
+            let row = &s.depth[j * s.stride..j * s.stride + g.nx as usize];
+            let brow = (j / self.side.1 as usize) * self.nbx as usize;
+            for (bi, part) in row.chunks(self.side.0 as usize).enumerate() {
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                for &d in part {
+                    if d > 0.0 {
+                        lo = lo.min(d);
+                        hi = hi.max(d);
+                    }
                 }
-            }
-            if empty || xl > xr {
-                continue;
-            }
-            let i0 = ceil_i(((xl - gu0) * isu - 1e-3).clamp(-1.0, nx)).max(i_lo);
-            let i1 = floor_i(((xr - gu0) * isu + 1e-3).clamp(-1.0, nx)).min(i_hi);
-            let row = v as usize * width;
-            if i0 > i1 {
-                continue;
-            }
-            let (i0, i1) = (i0 as u32, i1 as u32);
-            for i in i0..=i1 {
-                let fi = (j * grid.nx + i) as usize;
-                if flags[fi] != 0 {
-                    continue;
-                }
-                let u = grid.u0 + i * grid.su;
-                let d = depth[row + u as usize];
-                if !(d > 0.0 && d >= zlo && d <= zhi) {
-                    continue;
-                }
-                let p = [u as f32, py];
-                let e0 = s * edge(pb, pc, p);
-                let e1 = s * edge(pc, pa, p);
-                let e2 = s * edge(pa, pb, p);
-                if e0 < -edges[0].2 || e1 < -edges[1].2 || e2 < -edges[2].2 {
-                    continue;
-                }
-                let (w0, w1, w2) = (e0.max(0.0), e1.max(0.0), e2.max(0.0));
-                let sum = w0 + w1 + w2;
-                let z = if sum > 0.0 {
-                    sum / (w0 * iza + w1 * izb + w2 * izc)
-                } else {
-                    3.0 / (iza + izb + izc)
-                };
-                if (d - z).abs() <= k.delta {
-                    flags[fi] = 1;
-                }
+                let r = &mut self.range[brow + bi];
+                *r = [r[0].min(lo), r[1].max(hi)];
             }
         }
     }
-    if let Some(cb) = chunk_box
-        && cur_chunk != usize::MAX
-    {
-        cb[cur_chunk] = cbox;
+
+    /// `true` when a block holding samples `[i_lo, i_hi] × [j_lo, j_hi]` has a candidate
+    /// depth within `[zlo, zhi]` (a conservative test).
+    #[inline]
+    fn meets(&self, (i_lo, i_hi, j_lo, j_hi): (u32, u32, u32, u32), zlo: f32, zhi: f32) -> bool {
+        for bj in j_lo / self.side.1..=j_hi / self.side.1 {
+            let row = &self.range[(bj * self.nbx) as usize..((bj + 1) * self.nbx) as usize];
+            for r in &row[(i_lo / self.side.0) as usize..=(i_hi / self.side.0) as usize] {
+                if r[1] >= zlo && r[0] <= zhi {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+/// Robot removal at the samples of `s` (built into `blocks` by the caller): a candidate
+/// sample whose depth d lies within `δ` of the depth d_r of **any** front-facing link triangle
+/// covering it (not only the nearest one; triangles grown by `margin` px) gets
+/// `flags[j · stride + i] = 1`. Chunks and triangles are skipped when their pixel box holds no
+/// sample, when every face turns away from the camera, or when no candidate depth near theirs
+/// lies in the blocks they cover, or, with `focus = [x, y, z, r]` (camera frame, m), when their
+/// bounding sphere is farther than `r` from that point; the rest are rasterised at the samples
+/// only (a span per sample row), so the cost is the chunks near candidate samples, not the
+/// image's pixels.
+pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &DepthBlocks, k: &Removal, focus: Option<[f32; 4]>, flags: &mut [u8]) {
+    let m = k.margin;
+    let grid = &s.grid;
+    let (gu0, su) = (grid.u0 as f32, grid.su as f32);
+    let (nx, isu) = (grid.nx as f32, 1.0 / su);
+    let meshes = view.meshes;
+    for (c, ch) in meshes.chunks.iter().enumerate() {
+        let cb = &view.chunk_box[c];
+        if cb[0] > cb[2] {
+            continue;
+        }
+        let Some(range) = s.in_box(cb) else { continue };
+        let cz = view.chunk_z[c];
+        if !blocks.meets(range, cz[0] - k.delta, cz[1] + k.delta) {
+            continue;
+        }
+        if let Some(f) = focus {
+            let sp = view.chunk_sphere[c];
+            let (dx, dy, dz) = (sp[0] - f[0], sp[1] - f[1], sp[2] - f[2]);
+            let reach = f[3] + sp[3];
+            if dx * dx + dy * dy + dz * dz > reach * reach {
+                continue;
+            }
+        }
+        for t in ch.triangles.clone() {
+            let tri = meshes.triangles[t];
+            let (pa, pb, pc) = (view.vertex_uv[tri[0] as usize], view.vertex_uv[tri[1] as usize], view.vertex_uv[tri[2] as usize]);
+            if pa[0].is_nan() || pb[0].is_nan() || pc[0].is_nan() {
+                continue;
+            }
+            let umin = pa[0].min(pb[0]).min(pc[0]) - m;
+            let umax = pa[0].max(pb[0]).max(pc[0]) + m;
+            let vmin = pa[1].min(pb[1]).min(pc[1]) - m;
+            let vmax = pa[1].max(pb[1]).max(pc[1]) + m;
+            let Some(trange @ (i_lo, i_hi, j_lo, j_hi)) = s.in_box(&[umin, vmin, umax, vmax]) else { continue };
+            let (a, b, c) = (
+                view.cam_vertices[tri[0] as usize],
+                view.cam_vertices[tri[1] as usize],
+                view.cam_vertices[tri[2] as usize],
+            );
+            // Back faces of the closed, outward-wound link meshes lie behind their front faces,
+            // which cover the same pixels.
+            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let nrm = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            if nrm[0] * a[0] + nrm[1] * a[1] + nrm[2] * a[2] >= 0.0 {
+                continue;
+            }
+            let area = edge(pa, pb, pc);
+            if area.abs() < 1e-12 {
+                continue;
+            }
+            // With clamped barycentrics the depth stays within the corners' depths.
+            let zlo = a[2].min(b[2]).min(c[2]) - k.delta;
+            let zhi = a[2].max(b[2]).max(c[2]) + k.delta;
+            if !blocks.meets(trange, zlo, zhi) {
+                continue;
+            }
+            let sgn = area.signum();
+            let len = |a: [f32; 2], b: [f32; 2]| ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+            // Edge i is opposite corner i; inside (grown) when s · edge ≥ −margin · length.
+            let edges = [(pb, pc, m * len(pb, pc)), (pc, pa, m * len(pc, pa)), (pa, pb, m * len(pa, pb))];
+            let (iza, izb, izc) = (1.0 / a[2], 1.0 / b[2], 1.0 / c[2]);
+            for j in j_lo..=j_hi {
+                let py = (grid.v0 + j * grid.sv) as f32;
+                let (mut xl, mut xr) = (umin, umax);
+                let mut empty = false;
+                for &(p, q, tol) in &edges {
+                    // sgn · edge(p, q, (x, py)) = alpha · x + beta ≥ −tol
+                    let alpha = -sgn * (q[1] - p[1]);
+                    let beta = sgn * ((q[0] - p[0]) * (py - p[1]) + (q[1] - p[1]) * p[0]);
+                    if alpha > 0.0 {
+                        xl = xl.max((-tol - beta) / alpha);
+                    } else if alpha < 0.0 {
+                        xr = xr.min((-tol - beta) / alpha);
+                    } else if beta < -tol {
+                        empty = true;
+                    }
+                }
+                if empty || xl > xr {
+                    continue;
+                }
+                let i0 = ceil_i(((xl - gu0) * isu - 1e-3).clamp(-1.0, nx)).max(i_lo as i32);
+                let i1 = floor_i(((xr - gu0) * isu + 1e-3).clamp(-1.0, nx)).min(i_hi as i32);
+                if i0 > i1 {
+                    continue;
+                }
+                let row = j as usize * s.stride;
+                for i in i0 as u32..=i1 as u32 {
+                    let fi = row + i as usize;
+                    if flags[fi] != 0 {
+                        continue;
+                    }
+                    let d = s.depth[fi];
+                    if !(d > 0.0 && d >= zlo && d <= zhi) {
+                        continue;
+                    }
+                    let p = [(grid.u0 + i * grid.su) as f32, py];
+                    let e0 = sgn * edge(pb, pc, p);
+                    let e1 = sgn * edge(pc, pa, p);
+                    let e2 = sgn * edge(pa, pb, p);
+                    if e0 < -edges[0].2 || e1 < -edges[1].2 || e2 < -edges[2].2 {
+                        continue;
+                    }
+                    let (w0, w1, w2) = (e0.max(0.0), e1.max(0.0), e2.max(0.0));
+                    let sum = w0 + w1 + w2;
+                    let z = if sum > 0.0 {
+                        sum / (w0 * iza + w1 * izb + w2 * izc)
+                    } else {
+                        3.0 / (iza + izb + izc)
+                    };
+                    if (d - z).abs() <= k.delta {
+                        flags[fi] = 1;
+                    }
+                }
+            }
+        }
     }
 }

@@ -4,7 +4,7 @@
 
 use crate::cam::Cam;
 use crate::layout::{Buffers, LinkBest, RobotPoint};
-use crate::raster::{Grid, Removal, RobotMeshes, TRI_CHUNK, mark_robot};
+use crate::raster::{DepthBlocks, Grid, Removal, RobotMeshes, RobotView, Samples, mark_robot};
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 
 /// The table plane seen from the camera: a pixel's base-frame z is
@@ -156,31 +156,59 @@ pub fn argmin_dist2(r: &[f32; 3], obj: Objects<'_>) -> Option<(usize, f32)> {
     best
 }
 
-/// Stage 2: robot removal at the object lattice samples ([`Buffers::lattice_robot`]) and the
-/// triangle chunks' pixel boxes, from the frame's real depth.
-pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, u32), k: &Removal, buf: &mut Buffers) {
-    let grid = Grid {
-        u0: 0,
-        v0: 0,
-        su: step.0,
-        sv: step.1,
-        nx: buf.lattice_nx,
-        ny: buf.lattice_ny,
+/// Stage 2: the candidate depth of every object lattice sample ([`Buffers::lattice_depth`])
+/// and robot removal at those samples ([`Buffers::lattice_robot`]), from the frame's real
+/// depth.
+pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, u32), k: &Classify, removal: &Removal, buf: &mut Buffers) {
+    let Buffers {
+        width,
+        ray_x,
+        ray_y,
+        cam_vertices,
+        vertex_uv,
+        chunk_box,
+        chunk_z,
+        chunk_sphere,
+        lattice_nx,
+        lattice_ny,
+        lattice_depth,
+        lattice_robot,
+        depth_blocks,
+        ..
+    } = buf;
+    let (w, nx) = (*width as usize, *lattice_nx as usize);
+    for (j, out) in lattice_depth.chunks_exact_mut(nx).enumerate() {
+        let v = j * step.1 as usize;
+        let (row, ry) = (&depth[v * w..(v + 1) * w], ray_y[v]);
+        for (i, o) in out.iter_mut().enumerate() {
+            let u = i * step.0 as usize;
+            let d = row[u];
+            *o = if k.candidate(d, ray_x[u], ry) { d } else { 0.0 };
+        }
+    }
+    let samples = Samples {
+        grid: Grid {
+            u0: 0,
+            v0: 0,
+            su: step.0,
+            sv: step.1,
+            nx: *lattice_nx,
+            ny: *lattice_ny,
+        },
+        depth: lattice_depth,
+        stride: nx,
     };
-    buf.lattice_robot.fill(0);
-    mark_robot(
+    let view = RobotView {
         meshes,
-        &buf.cam_vertices,
-        &buf.vertex_uv,
-        0..meshes.triangles.len(),
-        &grid,
-        depth,
-        buf.width as usize,
-        k,
-        [0.0, f32::INFINITY],
-        &mut buf.lattice_robot,
-        Some(&mut buf.chunk_box),
-    );
+        cam_vertices,
+        vertex_uv,
+        chunk_box,
+        chunk_z,
+        chunk_sphere,
+    };
+    depth_blocks.build(&samples);
+    lattice_robot.fill(0);
+    mark_robot(&view, &samples, depth_blocks, removal, None, lattice_robot);
 }
 
 /// Stage 3: the robot lattice. The in-image robot points are grouped per (T_s × T_s tile,
@@ -257,8 +285,9 @@ pub fn robot_lattice(buf: &mut Buffers, tile: u32, links: usize) {
 }
 
 /// Stage 4: the object lattice — every `step.0`-th column of every `step.1`-th row whose
-/// depth is a candidate ([`Classify::candidate`]) and that robot removal did not take.
-pub fn object_lattice(buf: &mut Buffers, depth: &[f32], step: (u32, u32), k: &Classify) {
+/// depth is a candidate ([`Classify::candidate`]) and that robot removal did not take (both
+/// from stage 2).
+pub fn object_lattice(buf: &mut Buffers, step: (u32, u32), k: &Classify) {
     buf.obj_ray_x.clear();
     buf.obj_ray_y.clear();
     buf.obj_depth.clear();
@@ -268,21 +297,20 @@ pub fn object_lattice(buf: &mut Buffers, depth: &[f32], step: (u32, u32), k: &Cl
     let nx = buf.lattice_nx as usize;
     for j in 0..buf.lattice_ny as usize {
         let v = j * step.1 as usize;
-        let row = v * w;
         let ry = buf.ray_y[v];
         let flags = &buf.lattice_robot[j * nx..(j + 1) * nx];
-        for (i, &f) in flags.iter().enumerate() {
-            let u = i * step.0 as usize;
-            let d = depth[row + u];
-            let rx = buf.ray_x[u];
-            if f != 0 || !k.candidate(d, rx, ry) {
+        let depths = &buf.lattice_depth[j * nx..(j + 1) * nx];
+        for (i, (&f, &d)) in flags.iter().zip(depths).enumerate() {
+            if f != 0 || d <= 0.0 {
                 continue;
             }
+            let u = i * step.0 as usize;
+            let rx = buf.ray_x[u];
             buf.obj_ray_x.push(rx);
             buf.obj_ray_y.push(ry);
             buf.obj_depth.push(d);
             buf.obj_cap.push(k.gray_cap(d, rx, ry));
-            buf.obj_pixel.push((row + u) as u32);
+            buf.obj_pixel.push((v * w + u) as u32);
         }
     }
 }
@@ -335,66 +363,131 @@ pub fn refine_slot(buf_points: &[RobotPoint], slot_points: &[u32], info: [u32; 4
     }
 }
 
-/// Classifies the pixels of the window `[u0, u0 + nw) × [v0, v0 + nh)` into
-/// [`Buffers::window`] (obstacle depth, or 0): candidate depth and not removed as the robot
-/// (triangles of the chunks overlapping the window only).
+/// Classifies the pixels of rectangle `rect = (u0, v0, nw, nh)` of the real `depth` (`width`
+/// px per row): `out[j · stride + i]` gets the depth of pixel `(u0 + i, v0 + j)` when `keep(d,
+/// ray_x, ray_y)` holds and robot removal does not take it, else 0; `flags` the removal flags.
+/// `keep` must imply [`Classify::candidate`]; `focus` as in [`mark_robot`].
 #[allow(clippy::too_many_arguments)]
-pub fn classify_window(
-    meshes: &RobotMeshes,
+fn classify_into(
+    view: &RobotView<'_>,
     depth: &[f32],
-    k: &Classify,
+    width: usize,
+    rays: (&[f32], &[f32]),
     removal: &Removal,
-    u0: u32,
-    v0: u32,
-    nw: u32,
-    nh: u32,
-    buf: &mut Buffers,
+    rect: (u32, u32, u32, u32),
+    keep: impl Fn(f32, f32, f32) -> bool,
+    focus: Option<[f32; 4]>,
+    blocks: &mut DepthBlocks,
+    (out, flags, stride): (&mut [f32], &mut [u8], usize),
 ) {
-    let n = (nw * nh) as usize;
-    let w = buf.width as usize;
-    let flags = &mut buf.window_robot[..n];
-    flags.fill(0);
-    let grid = Grid {
-        u0,
-        v0,
-        su: 1,
-        sv: 1,
-        nx: nw,
-        ny: nh,
+    let (u0, v0, nw, nh) = (rect.0 as usize, rect.1 as usize, rect.2 as usize, rect.3 as usize);
+    if nw == 0 || nh == 0 {
+        return;
+    }
+    for j in 0..nh {
+        let (v, at) = (v0 + j, j * stride..j * stride + nw);
+        let ry = rays.1[v];
+        let row = &depth[v * width + u0..v * width + u0 + nw];
+        for ((o, &d), &rx) in out[at.clone()].iter_mut().zip(row).zip(&rays.0[u0..u0 + nw]) {
+            *o = if keep(d, rx, ry) { d } else { 0.0 };
+        }
+        flags[at].fill(0);
+    }
+    let samples = Samples {
+        grid: Grid {
+            u0: rect.0,
+            v0: rect.1,
+            su: 1,
+            sv: 1,
+            nx: rect.2,
+            ny: rect.3,
+        },
+        depth: out,
+        stride,
     };
-    // Candidates first (range, table), so robot removal only rasterises triangles near their
-    // depths.
-    let mut drange = [f32::INFINITY, f32::NEG_INFINITY];
-    for j in 0..nh as usize {
-        let v = v0 as usize + j;
-        let ry = buf.ray_y[v];
-        for i in 0..nw as usize {
-            let u = u0 as usize + i;
-            let d = depth[v * w + u];
-            let keep = k.candidate(d, buf.ray_x[u], ry);
-            buf.window[j * nw as usize + i] = if keep { d } else { 0.0 };
-            if keep {
-                drange = [drange[0].min(d), drange[1].max(d)];
+    blocks.build(&samples);
+    mark_robot(view, &samples, blocks, removal, focus, flags);
+    for j in 0..nh {
+        let at = j * stride..j * stride + nw;
+        for (o, &r) in out[at.clone()].iter_mut().zip(&flags[at]) {
+            if r != 0 {
+                *o = 0.0;
             }
         }
     }
-    if drange[0] > drange[1] {
-        return;
-    }
-    let (wu0, wv0, wu1, wv1) = (u0 as f32, v0 as f32, (u0 + nw) as f32 - 1.0, (v0 + nh) as f32 - 1.0);
-    let tris = meshes.triangles.len();
-    for (c, b) in buf.chunk_box.iter().enumerate() {
-        if b[0] > wu1 || b[2] < wu0 || b[1] > wv1 || b[3] < wv0 {
-            continue;
-        }
-        let range = c * TRI_CHUNK..((c + 1) * TRI_CHUNK).min(tris);
-        mark_robot(meshes, &buf.cam_vertices, &buf.vertex_uv, range, &grid, depth, w, removal, drange, flags, None);
-    }
-    for (f, &r) in buf.window[..n].iter_mut().zip(flags.iter()) {
-        if r != 0 {
-            *f = 0.0;
-        }
-    }
+}
+
+/// Every pixel of the image classified into [`Buffers::filtered`] (obstacle depth, or 0: no
+/// candidate depth, or removed as the robot) and [`Buffers::robot_flags`] — for methods that
+/// read every pixel (brute force, Flacco et al.).
+pub fn classify_full(meshes: &RobotMeshes, depth: &[f32], k: &Classify, removal: &Removal, buf: &mut Buffers) {
+    let Buffers {
+        width,
+        height,
+        ray_x,
+        ray_y,
+        cam_vertices,
+        vertex_uv,
+        chunk_box,
+        chunk_z,
+        chunk_sphere,
+        depth_blocks,
+        filtered,
+        robot_flags,
+        ..
+    } = buf;
+    let view = RobotView {
+        meshes,
+        cam_vertices,
+        vertex_uv,
+        chunk_box,
+        chunk_z,
+        chunk_sphere,
+    };
+    let w = *width as usize;
+    let rect = (0, 0, *width, *height);
+    let keep = |d, rx, ry| k.candidate(d, rx, ry);
+    classify_into(&view, depth, w, (ray_x, ray_y), removal, rect, keep, None, depth_blocks, (filtered, robot_flags, w));
+}
+
+/// Classifies the window `win = (u0, v0, nw, nh)` into [`Buffers::window`] (row stride `nw`):
+/// the pixels for which `keep(d, ray_x, ray_y)` holds — it must imply
+/// [`Classify::candidate`]; callers keep only the pixels that can change their result, which
+/// lets robot removal skip every triangle far from them — and that robot removal does not
+/// take (`focus` as in [`mark_robot`]).
+pub fn classify_window(
+    meshes: &RobotMeshes,
+    depth: &[f32],
+    removal: &Removal,
+    win: (u32, u32, u32, u32),
+    keep: impl Fn(f32, f32, f32) -> bool,
+    focus: Option<[f32; 4]>,
+    buf: &mut Buffers,
+) {
+    let Buffers {
+        width,
+        ray_x,
+        ray_y,
+        cam_vertices,
+        vertex_uv,
+        chunk_box,
+        chunk_z,
+        chunk_sphere,
+        depth_blocks,
+        window,
+        window_robot,
+        ..
+    } = buf;
+    let view = RobotView {
+        meshes,
+        cam_vertices,
+        vertex_uv,
+        chunk_box,
+        chunk_z,
+        chunk_sphere,
+    };
+    let target = (&mut window[..], &mut window_robot[..], win.2 as usize);
+    classify_into(&view, depth, *width as usize, (ray_x, ray_y), removal, win, keep, focus, depth_blocks, target);
 }
 
 /// A window of `half` px around pixel `p`, clipped to the image: `(u0, v0, nw, nh)`.
@@ -407,12 +500,11 @@ pub fn window_around(p: u32, half: (u32, u32), width: u32, height: u32) -> (u32,
     (u0, v0, u1 - u0 + 1, v1 - v0 + 1)
 }
 
-/// The `refine_obstacle` addition for one link, after [`classify_window`] filled the window
-/// `(u0, v0, nw, nh)` around the best object pixel (±(S − 1) px): every obstacle pixel there
-/// against the best robot point, then every robot point of the slot against the (possibly
-/// new) object pixel.
-#[allow(clippy::too_many_arguments)]
-pub fn refine_obstacle(buf: &Buffers, k: &Classify, win: (u32, u32, u32, u32), best: &mut LinkBest) {
+/// The `refine_obstacle` addition for one link, after [`classify_window`] classified the
+/// window `(u0, v0, nw, nh)` around the best object pixel (±(S − 1) px), keeping the pixels
+/// closer to the best robot point than the best pair: the closest of them, then every robot
+/// point of the slot against the (possibly new) object pixel. `depth` is the frame's depth.
+pub fn refine_obstacle(buf: &Buffers, depth: &[f32], k: &Classify, win: (u32, u32, u32, u32), best: &mut LinkBest) {
     if !best.is_some() {
         return;
     }
@@ -423,8 +515,7 @@ pub fn refine_obstacle(buf: &Buffers, k: &Classify, win: (u32, u32, u32, u32), b
     for j in 0..nh {
         let v = v0 + j;
         let ry = buf.ray_y[v];
-        for i in 0..nw {
-            let od = buf.window[j * nw + i];
+        for (i, &od) in buf.window[j * nw..(j + 1) * nw].iter().enumerate() {
             if od > 0.0 {
                 let u = u0 + i;
                 let rx = buf.ray_x[u];
@@ -437,8 +528,7 @@ pub fn refine_obstacle(buf: &Buffers, k: &Classify, win: (u32, u32, u32, u32), b
         }
     }
     let op = best.object_pixel as usize;
-    let (ou, ov) = (op % w - u0, op / w - v0);
-    let od = buf.window[ov * nw + ou];
+    let od = depth[op];
     let (rx, ry) = (buf.ray_x[op % w], buf.ray_y[op / w]);
     let cap = k.gray_cap(od, rx, ry);
     let one = Objects {
@@ -452,59 +542,54 @@ pub fn refine_obstacle(buf: &Buffers, k: &Classify, win: (u32, u32, u32, u32), b
     refine_slot(&buf.cam_points, &buf.slot_points, buf.robot_lattice_info[lattice as usize], lattice, one, &pix, best);
 }
 
-/// Stage 7: the obstacle normal at the window's pixel `(ou, ov)` (camera frame, unit,
-/// unoriented), from a weighted least-squares plane through the obstacle pixels of the window
-/// `(u0, v0, nw, nh)` classified by [`classify_window`] (thesis: L = 1 % of the image's
-/// points), weights `exp(−‖p − o‖² / σ²)`. `None` when fewer than 3 points or a degenerate fit.
-pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), object_pixel: u32, sigma: f32) -> Option<Vector3<f32>> {
-    let w = buf.width;
-    let (u0, v0, nw, nh) = win;
-    let (ou, ov) = (object_pixel % w, object_pixel / w);
-    let d0 = buf.window[((ov - v0) * nw + (ou - u0)) as usize];
-    if d0 <= 0.0 {
-        return None;
-    }
-    let o = Vector3::new(buf.ray_x[ou as usize] * d0, buf.ray_y[ov as usize] * d0, d0);
+/// Squared radius around the obstacle point beyond which a pixel's normal-fit weight
+/// `exp(−‖p − o‖² / σ²)` is below 10⁻⁶ and the pixel is dropped, m².
+pub fn normal_cut2(sigma: f32) -> f32 {
+    13.8 * sigma * sigma
+}
+
+/// Stage 7: the obstacle normal at camera-frame point `o` (unit, unoriented), from a weighted
+/// least-squares plane through the obstacle pixels of the window `(u0, v0, nw, nh)`
+/// classified by [`classify_window`] (thesis: L = 1 % of the image's points), weights
+/// `exp(−‖p − o‖² / σ²)`, pixels beyond [`normal_cut2`] dropped. `None` when fewer than 3
+/// points or a degenerate fit.
+pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), o: [f32; 3], sigma: f32) -> Option<Vector3<f32>> {
+    let (u0, v0, nw, nh) = (win.0 as usize, win.1 as usize, win.2 as usize, win.3 as usize);
     let inv_s2 = 1.0 / (sigma * sigma);
-    // Weights below 1e-6 are dropped: ‖q‖² > 13.8 σ².
-    let cut = 13.8 * sigma * sigma;
-    // Σw, Σw·q, Σw·q·qᵀ (upper triangle), accumulated in f64.
-    let mut acc = [0.0f64; 10];
-    let mut count = 0usize;
+    let cut = normal_cut2(sigma);
+    // Σw, Σw·q, Σw·q·qᵀ (upper triangle), Σ[w > 0], per lane; q = p − o (small, so f32 holds).
+    let mut acc = [[0.0f32; LANES]; 11];
+    let mut add = |k: usize, d: f32, rx: f32, ry: f32| {
+        let q = [rx * d - o[0], ry * d - o[1], d - o[2]];
+        let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+        let wgt = if d > 0.0 && n2 <= cut { exp_neg(-n2 * inv_s2) } else { 0.0 };
+        let (wx, wy, wz) = (wgt * q[0], wgt * q[1], wgt * q[2]);
+        let terms = [wgt, wx, wy, wz, wx * q[0], wx * q[1], wx * q[2], wy * q[1], wy * q[2], wz * q[2]];
+        for (a, t) in acc.iter_mut().zip(terms) {
+            a[k] += t;
+        }
+        acc[10][k] += if wgt > 0.0 { 1.0 } else { 0.0 };
+    };
     for j in 0..nh {
-        let ry = buf.ray_y[(v0 + j) as usize];
-        let row = &buf.window[(j * nw) as usize..((j + 1) * nw) as usize];
-        for (i, &d) in row.iter().enumerate() {
-            if d <= 0.0 {
-                continue;
+        let ry = buf.ray_y[v0 + j];
+        let (dc, dt) = buf.window[j * nw..(j + 1) * nw].as_chunks::<LANES>();
+        let (xc, xt) = buf.ray_x[u0..u0 + nw].as_chunks::<LANES>();
+        for (d, x) in dc.iter().zip(xc) {
+            for k in 0..LANES {
+                add(k, d[k], x[k], ry);
             }
-            let q = [buf.ray_x[u0 as usize + i] * d - o.x, ry * d - o.y, d - o.z];
-            let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-            if n2 > cut {
-                continue;
-            }
-            let wgt = f64::from(exp_neg(-n2 * inv_s2));
-            let (x, y, z) = (f64::from(q[0]), f64::from(q[1]), f64::from(q[2]));
-            let (wx, wy, wz) = (wgt * x, wgt * y, wgt * z);
-            acc[0] += wgt;
-            acc[1] += wx;
-            acc[2] += wy;
-            acc[3] += wz;
-            acc[4] += wx * x;
-            acc[5] += wx * y;
-            acc[6] += wx * z;
-            acc[7] += wy * y;
-            acc[8] += wy * z;
-            acc[9] += wz * z;
-            count += 1;
+        }
+        for (&d, &x) in dt.iter().zip(xt) {
+            add(0, d, x, ry);
         }
     }
-    let sw = acc[0];
-    if count < 3 || sw <= 0.0 {
+    let sum = |k: usize| acc[k].iter().map(|&x| f64::from(x)).sum::<f64>();
+    let (sw, count) = (sum(0), sum(10));
+    if count < 3.0 || sw <= 0.0 {
         return None;
     }
-    let mean = Vector3::new(acc[1], acc[2], acc[3]) / sw;
-    let s2 = Matrix3::new(acc[4], acc[5], acc[6], acc[5], acc[7], acc[8], acc[6], acc[8], acc[9]);
+    let mean = Vector3::new(sum(1), sum(2), sum(3)) / sw;
+    let s2 = Matrix3::new(sum(4), sum(5), sum(6), sum(5), sum(7), sum(8), sum(6), sum(8), sum(9));
     let cov = s2 / sw - mean * mean.transpose();
     let eig = SymmetricEigen::new(cov);
     let mut order = [0usize, 1, 2];
