@@ -14,13 +14,13 @@
 //!    the camera frame with its link, [`point_uv`](Buffers::point_uv) its projection (eq. 5.14).
 //! 2. [`lattice_robot`](Buffers::lattice_robot): robot removal evaluated at the object lattice
 //!    samples only (the link triangles rasterised at those samples, |d − d_r| ≤ δ);
-//! 3. robot lattice: the points grouped per (tile, link) slot
-//!    ([`slot_points`](Buffers::slot_points)), and per slot the point closest to the tile
-//!    centre ([`robot_lattice`](Buffers::robot_lattice));
+//! 3. robot lattice: the points' (tile, link) slots ([`point_slot`](Buffers::point_slot)),
+//!    and per slot the point closest to the tile centre ([`robot_lattice`](Buffers::robot_lattice));
 //! 4. object lattice (structure of arrays so the distance loop vectorises): every S_x-th
 //!    column of every S_y-th row that holds an obstacle;
 //! 5. [`link_best`](Buffers::link_best): per link, the closest (robot, object) pair under eq.
-//!    5.15–5.17; 6. refinement over the winning slot's points (and the obstacle window);
+//!    5.15–5.17; 6. refinement over the winning slot's points (listed in
+//!    [`slot_points`](Buffers::slot_points)) and the obstacle window;
 //! 7. normals from a window of pixels classified on demand ([`window`](Buffers::window)).
 
 use bytemuck::{Pod, Zeroable};
@@ -130,20 +130,37 @@ pub struct Buffers {
     /// Projection `[u, v]` of each robot point, px (NaN when outside the image or behind the
     /// near plane: such points are not in the depth space).
     pub point_uv: Vec<[f32; 2]>,
-    /// Per (tile, link) slot: number of robot points this frame (reset after use).
+    /// Per image column: the slot offset of its tile column (`⌊u / T_s⌋ · links`).
+    pub col_slot: Vec<u32>,
+    /// Per image column: the u of its tile's centre, px.
+    pub col_centre: Vec<f32>,
+    /// Per image row: the slot offset of its tile row (`⌊v / T_s⌋ · tiles per row · links`).
+    pub row_slot: Vec<u32>,
+    /// Per image row: the v of its tile's centre, px.
+    pub row_centre: Vec<f32>,
+    /// Per (tile, link) slot: number of robot points this frame (valid for the active slots).
     pub slot_count: Vec<u32>,
-    /// Per slot: start of its points in [`slot_points`](Self::slot_points) this frame.
-    pub slot_start: Vec<u32>,
+    /// Per slot: (squared pixel distance to the tile centre, index) of its best point this
+    /// frame (valid for the active slots; a write cursor in [`group_slots`](crate::stages::group_slots)).
+    pub slot_best: Vec<(f32, u32)>,
     /// Slots holding points this frame, ascending.
     pub active_slots: Vec<u32>,
     /// Slot of each robot point (`u32::MAX` when not in the image).
     pub point_slot: Vec<u32>,
-    /// Robot point indices grouped by slot (ascending slot, then ascending index).
+    /// Robot point indices of the listed slots (stage 6 lists the winning ones), each slot's
+    /// ascending; where a slot's run starts is in its [`robot_lattice_info`](Self::robot_lattice_info).
     pub slot_points: Vec<u32>,
+    /// Camera-frame x of each point of [`slot_points`](Self::slot_points), m.
+    pub slot_x: Vec<f32>,
+    /// Camera-frame y, m.
+    pub slot_y: Vec<f32>,
+    /// Camera-frame z (= d_r), m.
+    pub slot_z: Vec<f32>,
     /// Robot lattice points (stage 3): per slot the point closest to the tile centre.
     pub robot_lattice: Vec<RobotPoint>,
-    /// Per robot lattice point: `[point index, slot, first, count]` — its robot point, its slot
-    /// and the slot's points in [`slot_points`](Self::slot_points).
+    /// Per robot lattice point: `[point index, slot, first, count]` — its robot point, its slot,
+    /// where the slot's points start in [`slot_points`](Self::slot_points) (`u32::MAX` until
+    /// listed) and how many it has.
     pub robot_lattice_info: Vec<[u32; 4]>,
     /// Object lattice grid size: samples per row.
     pub lattice_nx: u32,
@@ -226,11 +243,18 @@ impl Buffers {
             chunk_sphere: vec![[0.0; 4]; chunks],
             cam_points: vec![[0.0; 4]; points],
             point_uv: vec![[0.0; 2]; points],
+            col_slot: (0..width).map(|u| (u / t) * links as u32).collect(),
+            col_centre: (0..width).map(|u| ((u / t) * t) as f32 + (t as f32 - 1.0) * 0.5).collect(),
+            row_slot: (0..height).map(|v| (v / t) * width.div_ceil(t) * links as u32).collect(),
+            row_centre: (0..height).map(|v| ((v / t) * t) as f32 + (t as f32 - 1.0) * 0.5).collect(),
             slot_count: vec![0; slots],
-            slot_start: vec![0; slots],
+            slot_best: vec![(0.0, 0); slots],
             active_slots: Vec::with_capacity(points.min(slots)),
             point_slot: vec![u32::MAX; points],
             slot_points: Vec::with_capacity(points),
+            slot_x: Vec::with_capacity(points),
+            slot_y: Vec::with_capacity(points),
+            slot_z: Vec::with_capacity(points),
             robot_lattice: Vec::with_capacity(points.min(slots)),
             robot_lattice_info: Vec::with_capacity(points.min(slots)),
             lattice_nx: nx,

@@ -9,8 +9,8 @@ use crate::params::{Backend, FdedParams};
 use crate::raster::{Removal, RobotMeshes, RobotPointSet, render_virtual_depth, transform_points, transform_vertices, view_chunks};
 use crate::stages::{
     Classify, Objects, TablePlane, classify_full, classify_window, dist2, gray_depth, lattice_minimum, normal_cut2,
-    object_lattice, obstacle_normal, refine_obstacle, refine_slot, remove_robot_at_lattice, robot_lattice,
-    window_around,
+    SlotPoints, gather_slot, group_slots, object_lattice, obstacle_normal, refine_obstacle, refine_slot,
+    remove_robot_at_lattice, robot_lattice, window_around,
 };
 use cowork_depth::{DepthImage, Intrinsics};
 use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
@@ -336,7 +336,7 @@ impl Fded {
         let near = self.params.near_clip as f32;
         transform_vertices(&self.meshes, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
         transform_points(&self.points, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
-        view_chunks(&self.meshes, &self.poses, &cam_from_base, self.removal.margin, &mut self.buf);
+        view_chunks(&self.meshes, &self.poses, &cam_from_base, &self.cam, near, self.removal.margin, &mut self.buf);
         self.classify.table = self.params.table_z.map(|z| {
             let m = frame.camera_pose.rotation.to_rotation_matrix();
             let m = m.matrix();
@@ -429,7 +429,7 @@ impl Fded {
         let step = (self.params.step_x, self.params.step_y);
         remove_robot_at_lattice(&self.meshes, depth, step, &self.classify, &self.removal, &mut self.buf);
         let t1b = Instant::now();
-        robot_lattice(&mut self.buf, self.params.tile_size, self.model.link_count());
+        robot_lattice(&mut self.buf);
         object_lattice(&mut self.buf, step, &self.classify);
         let t2 = Instant::now();
         let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
@@ -473,17 +473,24 @@ impl Fded {
     /// Stage 6: refinement over every robot point of each link's winning slot (split over the
     /// object lattice between the workers).
     fn refine_slots(&mut self) {
+        for l in 0..self.buf.link_best.len() {
+            let lb = self.buf.link_best[l];
+            if lb.is_some() {
+                gather_slot(&mut self.buf, lb.lattice as usize, self.points.link_points[l].clone());
+            }
+        }
         let buf = &mut self.buf;
         let n = buf.obj_depth.len();
-        let parts = buf.partial_best.len();
-        for part in buf.partial_best.iter_mut() {
+        // Out of `buf` while the workers read the rest of it (moving a Vec does not allocate).
+        let mut partial = std::mem::take(&mut buf.partial_best);
+        let parts = partial.len();
+        for part in partial.iter_mut() {
             part.copy_from_slice(&buf.link_best);
         }
         {
-            let (points, slot_points, info) = (&buf.cam_points[..], &buf.slot_points[..], &buf.robot_lattice_info[..]);
             let (ox, oy, od, oc, opix) =
                 (&buf.obj_ray_x[..], &buf.obj_ray_y[..], &buf.obj_depth[..], &buf.obj_cap[..], &buf.obj_pixel[..]);
-            let link_best = &buf.link_best[..];
+            let (link_best, shared) = (&buf.link_best[..], &*buf);
             let work = |part: usize, best: &mut [LinkBest]| {
                 let r = part_range(n, parts, part);
                 let obj = Objects {
@@ -495,13 +502,21 @@ impl Fded {
                 for (l, lb) in link_best.iter().enumerate() {
                     if lb.is_some() {
                         let e = lb.lattice;
-                        refine_slot(points, slot_points, info[e as usize], e, obj, &opix[r.clone()], &mut best[l]);
+                        let pts = SlotPoints::of(shared, shared.robot_lattice_info[e as usize]);
+                        refine_slot(&pts, e, obj, &opix[r.clone()], &mut best[l]);
                     }
                 }
             };
-            run_parts(self.pool.as_ref(), &mut buf.partial_best, &work);
+            run_parts(self.pool.as_ref(), &mut partial, &work);
         }
-        merge(&buf.partial_best, &mut buf.link_best);
+        merge(&partial, &mut buf.link_best);
+        buf.partial_best = partial;
+    }
+
+    /// Lists the points of every robot lattice slot in [`Buffers::slot_points`] (the CPU
+    /// pipeline lists only the winning slots of stage 6; the GPU path uploads all).
+    pub fn group_slots(&mut self) {
+        group_slots(&mut self.buf);
     }
 
     /// The optional obstacle-side refinement (`refine_obstacle`): per link, the obstacle pixels

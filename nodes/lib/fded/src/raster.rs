@@ -31,8 +31,6 @@ pub struct RobotMeshes {
     /// Groups of at most [`TRI_CHUNK`] neighbouring triangles of one link: the unit robot
     /// removal culls by pixel box, depth range and facing.
     pub chunks: Vec<TriChunk>,
-    /// The distinct vertices of each chunk (global indices; [`TriChunk::vertices`] ranges).
-    pub chunk_vertices: Vec<u32>,
 }
 
 /// Up to [`TRI_CHUNK`] neighbouring triangles of one link, with the bounds that let robot
@@ -44,8 +42,6 @@ pub struct TriChunk {
     pub link: usize,
     /// Its triangles in [`RobotMeshes::triangles`].
     pub triangles: std::ops::Range<usize>,
-    /// Its distinct vertices in [`RobotMeshes::chunk_vertices`].
-    pub vertices: std::ops::Range<usize>,
     /// Bounding sphere centre, link frame, m.
     pub centre: [f32; 3],
     /// Bounding sphere radius, m.
@@ -65,7 +61,6 @@ impl RobotMeshes {
         let mut vertices = Vec::with_capacity(model.mesh_vertex_count());
         let mut triangles = Vec::new();
         let mut chunks = Vec::new();
-        let mut chunk_vertices = Vec::new();
         for l in 0..model.link_count() {
             let start = vertices.len();
             if let Some(mesh) = model.link_mesh(l) {
@@ -81,7 +76,7 @@ impl RobotMeshes {
                 triangles.extend(tris);
                 for lo in (first..triangles.len()).step_by(TRI_CHUNK) {
                     let range = lo..(lo + TRI_CHUNK).min(triangles.len());
-                    chunks.push(TriChunk::of(l, range, &triangles, &vertices, &mut chunk_vertices));
+                    chunks.push(TriChunk::of(l, range, &triangles, &vertices));
                 }
             }
             link_vertices.push(start..vertices.len());
@@ -91,7 +86,6 @@ impl RobotMeshes {
             vertices,
             triangles,
             chunks,
-            chunk_vertices,
         }
     }
 
@@ -126,25 +120,12 @@ fn sort_morton(tris: &mut [[u32; 3]], vertices: &[[f32; 3]]) {
 }
 
 impl TriChunk {
-    /// The chunk of triangles `range` of link `link`; appends its distinct vertices to
-    /// `chunk_vertices`.
-    fn of(
-        link: usize,
-        range: std::ops::Range<usize>,
-        triangles: &[[u32; 3]],
-        vertices: &[[f32; 3]],
-        chunk_vertices: &mut Vec<u32>,
-    ) -> Self {
-        let first = chunk_vertices.len();
-        for t in &triangles[range.clone()] {
-            for &i in t {
-                if !chunk_vertices[first..].contains(&i) {
-                    chunk_vertices.push(i);
-                }
-            }
-        }
+    /// The chunk of triangles `range` of link `link`.
+    fn of(link: usize, range: std::ops::Range<usize>, triangles: &[[u32; 3]], vertices: &[[f32; 3]]) -> Self {
+        let mut ids: Vec<u32> = triangles[range.clone()].iter().flatten().copied().collect();
+        ids.sort_unstable();
+        ids.dedup();
         let p = |i: u32| Vector3::from(vertices[i as usize].map(f64::from));
-        let ids = &chunk_vertices[first..];
         let centre = ids.iter().map(|&i| p(i)).sum::<Vector3<f64>>() / ids.len() as f64;
         let radius = ids.iter().map(|&i| (p(i) - centre).norm()).fold(0.0, f64::max);
         // Degenerate faces are never drawn (back-face test n·v ≥ 0 with n = 0), so they do not
@@ -159,7 +140,6 @@ impl TriChunk {
         Self {
             link,
             triangles: range,
-            vertices: first..chunk_vertices.len(),
             centre: [centre.x as f32, centre.y as f32, centre.z as f32],
             // Rounding slack: the sphere must hold every f32 vertex.
             radius: (radius * (1.0 + 1e-5) + 1e-6) as f32,
@@ -436,11 +416,11 @@ pub struct Removal {
 }
 
 /// Per chunk this frame ([`Buffers::chunk_box`], [`Buffers::chunk_z`],
-/// [`Buffers::chunk_sphere`]): the pixel box of its projected vertices grown by `margin` px,
-/// the camera-frame depth range of its vertices and its bounding sphere; a chunk whose every
-/// face turns away from the camera (normal cone) gets an empty box (`u0 > u1`). Needs
-/// [`transform_vertices`] first.
-pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isometry3<f64>, margin: f32, out: &mut Buffers) {
+/// [`Buffers::chunk_sphere`]): its bounding sphere in the camera frame, the sphere's depth
+/// range and the pixel box of the sphere's projection grown by `margin` px (the whole image
+/// when the sphere reaches the near plane `near`); a chunk whose every face turns away from
+/// the camera (normal cone) gets an empty box (`u0 > u1`).
+pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isometry3<f64>, cam: &Cam, near: f32, margin: f32, out: &mut Buffers) {
     const CULLED: [f32; 4] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
     let mut link = usize::MAX;
     let (mut r, mut p) = (Matrix3::<f32>::identity(), Vector3::<f32>::zeros());
@@ -468,16 +448,22 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
                 }
             }
         }
-        let (mut b, mut z) = (CULLED, [f32::INFINITY, f32::NEG_INFINITY]);
-        for &i in &meshes.chunk_vertices[ch.vertices.clone()] {
-            let (uv, v) = (out.vertex_uv[i as usize], out.cam_vertices[i as usize]);
-            // NaN (behind the near plane) is ignored by min/max: triangles with such a
-            // corner are skipped anyway.
-            b = [b[0].min(uv[0]), b[1].min(uv[1]), b[2].max(uv[0]), b[3].max(uv[1])];
-            z = [z[0].min(v[2]), z[1].max(v[2])];
-        }
-        out.chunk_box[c] = [b[0] - margin, b[1] - margin, b[2] + margin, b[3] + margin];
-        out.chunk_z[c] = z;
+        let rad = ch.radius;
+        let (zn, zf) = (w.z - rad, w.z + rad);
+        out.chunk_z[c] = [zn, zf];
+        out.chunk_box[c] = if zn > near {
+            // x / z over the sphere's bounding cube is extreme at its corners.
+            let lo = |a: f32| a / if a >= 0.0 { zf } else { zn };
+            let hi = |a: f32| a / if a >= 0.0 { zn } else { zf };
+            [
+                cam.cx + cam.fx * lo(w.x - rad) - margin,
+                cam.cy + cam.fy * lo(w.y - rad) - margin,
+                cam.cx + cam.fx * hi(w.x + rad) + margin,
+                cam.cy + cam.fy * hi(w.y + rad) + margin,
+            ]
+        } else {
+            [f32::NEG_INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::INFINITY]
+        };
     }
 }
 
@@ -601,29 +587,137 @@ impl DepthBlocks {
     }
 }
 
-/// Robot removal at the samples of `s` (built into `blocks` by the caller): a candidate
-/// sample whose depth d lies within `δ` of the depth d_r of **any** front-facing link triangle
-/// covering it (not only the nearest one; triangles grown by `margin` px) gets
-/// `flags[j · stride + i] = 1`. Chunks and triangles are skipped when their pixel box holds no
-/// sample, when every face turns away from the camera, or when no candidate depth near theirs
-/// lies in the blocks they cover, or, with `focus = [x, y, z, r]` (camera frame, m), when their
-/// bounding sphere is farther than `r` from that point; the rest are rasterised at the samples
-/// only (a span per sample row), so the cost is the chunks near candidate samples, not the
-/// image's pixels.
-pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &DepthBlocks, k: &Removal, focus: Option<[f32; 4]>, flags: &mut [u8]) {
-    let m = k.margin;
-    let grid = &s.grid;
-    let (gu0, su) = (grid.u0 as f32, grid.su as f32);
-    let (nx, isu) = (grid.nx as f32, 1.0 / su);
-    let meshes = view.meshes;
-    for (c, ch) in meshes.chunks.iter().enumerate() {
-        let cb = &view.chunk_box[c];
-        if cb[0] > cb[2] {
-            continue;
+/// One front-facing link triangle ready for coverage tests: its projected corners, the
+/// orientation sign, the edge tolerances of the growth, inverse corner depths and its depth
+/// range widened by δ.
+struct TriTest {
+    p: [[f32; 2]; 3],
+    sgn: f32,
+    /// Per edge i (opposite corner i): margin × edge length.
+    tol: [f32; 3],
+    inv_z: [f32; 3],
+    /// Depth range of the corners ± δ, m.
+    z: [f32; 2],
+    /// Pixel box grown by the margin `[u0, v0, u1, v1]`.
+    bbox: [f32; 4],
+}
+
+impl TriTest {
+    /// The test for triangle `t`, or `None` when a corner is behind the near plane, it faces
+    /// away from the camera or it is degenerate in the image.
+    #[inline]
+    fn new(view: &RobotView<'_>, t: usize, k: &Removal) -> Option<Self> {
+        let m = k.margin;
+        let tri = view.meshes.triangles[t];
+        let (pa, pb, pc) = (view.vertex_uv[tri[0] as usize], view.vertex_uv[tri[1] as usize], view.vertex_uv[tri[2] as usize]);
+        if pa[0].is_nan() || pb[0].is_nan() || pc[0].is_nan() {
+            return None;
         }
-        let Some(range) = s.in_box(cb) else { continue };
-        let cz = view.chunk_z[c];
-        if !blocks.meets(range, cz[0] - k.delta, cz[1] + k.delta) {
+        let bbox = [
+            pa[0].min(pb[0]).min(pc[0]) - m,
+            pa[1].min(pb[1]).min(pc[1]) - m,
+            pa[0].max(pb[0]).max(pc[0]) + m,
+            pa[1].max(pb[1]).max(pc[1]) + m,
+        ];
+        Some(Self {
+            p: [pa, pb, pc],
+            sgn: 0.0,
+            tol: [0.0; 3],
+            inv_z: [0.0; 3],
+            z: [0.0; 2],
+            bbox,
+        })
+        .and_then(|t0| t0.finish(view, tri, k))
+    }
+
+    /// The 3-D part of [`new`](Self::new), once the pixel box is known to matter.
+    #[inline]
+    fn finish(mut self, view: &RobotView<'_>, tri: [u32; 3], k: &Removal) -> Option<Self> {
+        let (a, b, c) = (
+            view.cam_vertices[tri[0] as usize],
+            view.cam_vertices[tri[1] as usize],
+            view.cam_vertices[tri[2] as usize],
+        );
+        // Back faces of the closed, outward-wound link meshes lie behind their front faces,
+        // which cover the same pixels.
+        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+        let nrm = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        if nrm[0] * a[0] + nrm[1] * a[1] + nrm[2] * a[2] >= 0.0 {
+            return None;
+        }
+        let [pa, pb, pc] = self.p;
+        let area = edge(pa, pb, pc);
+        if area.abs() < 1e-12 {
+            return None;
+        }
+        let len = |a: [f32; 2], b: [f32; 2]| ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
+        let m = k.margin;
+        self.sgn = area.signum();
+        // Edge i is opposite corner i; inside (grown) when sgn · edge ≥ −margin · length.
+        self.tol = [m * len(pb, pc), m * len(pc, pa), m * len(pa, pb)];
+        self.inv_z = [1.0 / a[2], 1.0 / b[2], 1.0 / c[2]];
+        // With clamped barycentrics the depth stays within the corners' depths.
+        self.z = [a[2].min(b[2]).min(c[2]) - k.delta, a[2].max(b[2]).max(c[2]) + k.delta];
+        Some(self)
+    }
+
+    /// `true` when depth `d` at pixel `p` is within δ of the triangle's depth there (corners'
+    /// depths interpolated with clamped barycentrics) and `p` is inside the grown triangle.
+    #[inline]
+    fn removes(&self, p: [f32; 2], d: f32, delta: f32) -> bool {
+        if !(d >= self.z[0] && d <= self.z[1]) {
+            return false;
+        }
+        let [pa, pb, pc] = self.p;
+        let e0 = self.sgn * edge(pb, pc, p);
+        let e1 = self.sgn * edge(pc, pa, p);
+        let e2 = self.sgn * edge(pa, pb, p);
+        if e0 < -self.tol[0] || e1 < -self.tol[1] || e2 < -self.tol[2] {
+            return false;
+        }
+        let (w0, w1, w2) = (e0.max(0.0), e1.max(0.0), e2.max(0.0));
+        let sum = w0 + w1 + w2;
+        let [iza, izb, izc] = self.inv_z;
+        let z = if sum > 0.0 { sum / (w0 * iza + w1 * izb + w2 * izc) } else { 3.0 / (iza + izb + izc) };
+        (d - z).abs() <= delta
+    }
+}
+
+/// Chunks whose pixel box holds at most this many samples test their triangles against the
+/// candidate samples one by one; larger ones rasterise spans.
+const FEW_SAMPLES: usize = 8;
+
+/// Robot removal at the samples of `s`: a candidate sample whose depth d lies within `δ` of
+/// the depth d_r of **any** front-facing link triangle covering it (not only the nearest one;
+/// triangles grown by `margin` px) gets `flags[j · stride + i] = 1`. Returns whether any did.
+///
+/// Whole chunks are skipped when their pixel box holds no sample, when every face turns away
+/// from the camera, when no candidate depth near theirs lies in the blocks they cover
+/// (`blocks`, built from `s` here when first needed), or, with `focus = [x, y, z, r]` (camera
+/// frame, m), when their bounding sphere is farther than `r` from that point. A chunk over a
+/// few samples tests its triangles at its candidate samples only; a larger one rasterises
+/// each triangle at the samples of its box (a span per sample row). The cost is the chunks
+/// near candidate samples, not the image's pixels.
+pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &mut DepthBlocks, k: &Removal, focus: Option<[f32; 4]>, flags: &mut [u8]) -> bool {
+    let grid = &s.grid;
+    let (gu0, isu, nx) = (grid.u0 as f32, 1.0 / grid.su as f32, grid.nx as f32);
+    let extent = [
+        grid.u0 as f32,
+        grid.v0 as f32,
+        (grid.u0 + (grid.nx.max(1) - 1) * grid.su) as f32,
+        (grid.v0 + (grid.ny.max(1) - 1) * grid.sv) as f32,
+    ];
+    let (mut built, mut any) = (false, false);
+    // Candidate samples of a small chunk: (flag index, pixel, depth).
+    let mut few = [(0usize, [0.0f32; 2], 0.0f32); FEW_SAMPLES];
+    for (c, ch) in view.meshes.chunks.iter().enumerate() {
+        let cb = &view.chunk_box[c];
+        if cb[0] > extent[2] || cb[2] < extent[0] || cb[1] > extent[3] || cb[3] < extent[1] {
             continue;
         }
         if let Some(f) = focus {
@@ -634,57 +728,60 @@ pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &DepthBlocks, k
                 continue;
             }
         }
+        let Some(range) = s.in_box(cb) else { continue };
+        let cz = view.chunk_z[c];
+        let (zlo, zhi) = (cz[0] - k.delta, cz[1] + k.delta);
+        let (i_lo, i_hi, j_lo, j_hi) = range;
+        if ((i_hi - i_lo + 1) * (j_hi - j_lo + 1)) as usize <= FEW_SAMPLES {
+            let mut n = 0;
+            for j in j_lo..=j_hi {
+                for i in i_lo..=i_hi {
+                    let fi = j as usize * s.stride + i as usize;
+                    let d = s.depth[fi];
+                    if flags[fi] == 0 && d > 0.0 && d >= zlo && d <= zhi {
+                        few[n] = (fi, [(grid.u0 + i * grid.su) as f32, (grid.v0 + j * grid.sv) as f32], d);
+                        n += 1;
+                    }
+                }
+            }
+            if n == 0 {
+                continue;
+            }
+            for t in ch.triangles.clone() {
+                let Some(tt) = TriTest::new(view, t, k) else { continue };
+                for &(fi, p, d) in &few[..n] {
+                    let b = &tt.bbox;
+                    if flags[fi] == 0 && p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3] && tt.removes(p, d, k.delta) {
+                        flags[fi] = 1;
+                        any = true;
+                    }
+                }
+            }
+            continue;
+        }
+        if !built {
+            blocks.build(s);
+            built = true;
+        }
+        if !blocks.meets(range, zlo, zhi) {
+            continue;
+        }
         for t in ch.triangles.clone() {
-            let tri = meshes.triangles[t];
-            let (pa, pb, pc) = (view.vertex_uv[tri[0] as usize], view.vertex_uv[tri[1] as usize], view.vertex_uv[tri[2] as usize]);
-            if pa[0].is_nan() || pb[0].is_nan() || pc[0].is_nan() {
+            let Some(tt) = TriTest::new(view, t, k) else { continue };
+            let Some(trange @ (i_lo, i_hi, j_lo, j_hi)) = s.in_box(&tt.bbox) else { continue };
+            if !blocks.meets(trange, tt.z[0], tt.z[1]) {
                 continue;
             }
-            let umin = pa[0].min(pb[0]).min(pc[0]) - m;
-            let umax = pa[0].max(pb[0]).max(pc[0]) + m;
-            let vmin = pa[1].min(pb[1]).min(pc[1]) - m;
-            let vmax = pa[1].max(pb[1]).max(pc[1]) + m;
-            let Some(trange @ (i_lo, i_hi, j_lo, j_hi)) = s.in_box(&[umin, vmin, umax, vmax]) else { continue };
-            let (a, b, c) = (
-                view.cam_vertices[tri[0] as usize],
-                view.cam_vertices[tri[1] as usize],
-                view.cam_vertices[tri[2] as usize],
-            );
-            // Back faces of the closed, outward-wound link meshes lie behind their front faces,
-            // which cover the same pixels.
-            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-            let nrm = [
-                e1[1] * e2[2] - e1[2] * e2[1],
-                e1[2] * e2[0] - e1[0] * e2[2],
-                e1[0] * e2[1] - e1[1] * e2[0],
-            ];
-            if nrm[0] * a[0] + nrm[1] * a[1] + nrm[2] * a[2] >= 0.0 {
-                continue;
-            }
-            let area = edge(pa, pb, pc);
-            if area.abs() < 1e-12 {
-                continue;
-            }
-            // With clamped barycentrics the depth stays within the corners' depths.
-            let zlo = a[2].min(b[2]).min(c[2]) - k.delta;
-            let zhi = a[2].max(b[2]).max(c[2]) + k.delta;
-            if !blocks.meets(trange, zlo, zhi) {
-                continue;
-            }
-            let sgn = area.signum();
-            let len = |a: [f32; 2], b: [f32; 2]| ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2)).sqrt();
-            // Edge i is opposite corner i; inside (grown) when s · edge ≥ −margin · length.
-            let edges = [(pb, pc, m * len(pb, pc)), (pc, pa, m * len(pc, pa)), (pa, pb, m * len(pa, pb))];
-            let (iza, izb, izc) = (1.0 / a[2], 1.0 / b[2], 1.0 / c[2]);
+            let [pa, pb, pc] = tt.p;
+            let edges = [(pb, pc, tt.tol[0]), (pc, pa, tt.tol[1]), (pa, pb, tt.tol[2])];
             for j in j_lo..=j_hi {
                 let py = (grid.v0 + j * grid.sv) as f32;
-                let (mut xl, mut xr) = (umin, umax);
+                let (mut xl, mut xr) = (tt.bbox[0], tt.bbox[2]);
                 let mut empty = false;
                 for &(p, q, tol) in &edges {
                     // sgn · edge(p, q, (x, py)) = alpha · x + beta ≥ −tol
-                    let alpha = -sgn * (q[1] - p[1]);
-                    let beta = sgn * ((q[0] - p[0]) * (py - p[1]) + (q[1] - p[1]) * p[0]);
+                    let alpha = -tt.sgn * (q[1] - p[1]);
+                    let beta = tt.sgn * ((q[0] - p[0]) * (py - p[1]) + (q[1] - p[1]) * p[0]);
                     if alpha > 0.0 {
                         xl = xl.max((-tol - beta) / alpha);
                     } else if alpha < 0.0 {
@@ -704,32 +801,13 @@ pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &DepthBlocks, k
                 let row = j as usize * s.stride;
                 for i in i0 as u32..=i1 as u32 {
                     let fi = row + i as usize;
-                    if flags[fi] != 0 {
-                        continue;
-                    }
-                    let d = s.depth[fi];
-                    if !(d > 0.0 && d >= zlo && d <= zhi) {
-                        continue;
-                    }
-                    let p = [(grid.u0 + i * grid.su) as f32, py];
-                    let e0 = sgn * edge(pb, pc, p);
-                    let e1 = sgn * edge(pc, pa, p);
-                    let e2 = sgn * edge(pa, pb, p);
-                    if e0 < -edges[0].2 || e1 < -edges[1].2 || e2 < -edges[2].2 {
-                        continue;
-                    }
-                    let (w0, w1, w2) = (e0.max(0.0), e1.max(0.0), e2.max(0.0));
-                    let sum = w0 + w1 + w2;
-                    let z = if sum > 0.0 {
-                        sum / (w0 * iza + w1 * izb + w2 * izc)
-                    } else {
-                        3.0 / (iza + izb + izc)
-                    };
-                    if (d - z).abs() <= k.delta {
+                    if flags[fi] == 0 && tt.removes([(grid.u0 + i * grid.su) as f32, py], s.depth[fi], k.delta) {
                         flags[fi] = 1;
+                        any = true;
                     }
                 }
             }
         }
     }
+    any
 }

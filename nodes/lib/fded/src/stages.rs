@@ -206,81 +206,126 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         chunk_z,
         chunk_sphere,
     };
-    depth_blocks.build(&samples);
     lattice_robot.fill(0);
     mark_robot(&view, &samples, depth_blocks, removal, None, lattice_robot);
 }
 
-/// Stage 3: the robot lattice. The in-image robot points are grouped per (T_s × T_s tile,
-/// link) slot; in each slot the point whose projection is closest to the tile centre (ties:
-/// the lowest index) becomes a lattice point; slots without points give none. Lattice points
-/// come in ascending slot order.
-pub fn robot_lattice(buf: &mut Buffers, tile: u32, links: usize) {
-    let w = buf.width;
-    let tiles_x = w.div_ceil(tile);
-    buf.active_slots.clear();
-    for (i, uv) in buf.point_uv.iter().enumerate() {
+/// Stage 3: the robot lattice, in one pass over the robot points: each in-image point falls
+/// in the (T_s × T_s tile, link) slot of its nearest pixel; per slot the point whose
+/// projection is closest to the tile centre (ties: the lowest index) becomes a lattice point,
+/// with the slot's point count; slots without points give none. Lattice points come in
+/// ascending slot order. The slots' point lists are built later, for the slots that need them
+/// ([`gather_slot`], or [`group_slots`] for all).
+pub fn robot_lattice(buf: &mut Buffers) {
+    let Buffers {
+        cam_points,
+        point_uv,
+        col_slot,
+        col_centre,
+        row_slot,
+        row_centre,
+        slot_count,
+        slot_best,
+        active_slots,
+        point_slot,
+        ..
+    } = buf;
+    for &s in active_slots.iter() {
+        slot_count[s as usize] = 0;
+    }
+    active_slots.clear();
+    for (i, ((uv, p), ps)) in point_uv.iter().zip(cam_points.iter()).zip(point_slot.iter_mut()).enumerate() {
         if uv[0].is_nan() {
-            buf.point_slot[i] = u32::MAX;
+            *ps = u32::MAX;
             continue;
         }
-        // Nearest pixel (u ≥ −0.5, so truncation is the floor).
-        let (pu, pv) = ((uv[0] + 0.5) as u32, (uv[1] + 0.5) as u32);
-        let (tx, ty) = (pu / tile, pv / tile);
-        let l = buf.cam_points[i][3] as u32;
-        let slot = (ty * tiles_x + tx) * links as u32 + l;
-        buf.point_slot[i] = slot;
-        let c = &mut buf.slot_count[slot as usize];
-        if *c == 0 {
-            buf.active_slots.push(slot);
+        // Nearest pixel (u ≥ −0.5, so truncation is the floor; < width − 0.5 when not NaN).
+        let (pu, pv) = ((uv[0] + 0.5) as i32 as usize, (uv[1] + 0.5) as i32 as usize);
+        let slot = row_slot[pv] + col_slot[pu] + p[3] as i32 as u32;
+        *ps = slot;
+        let d = (uv[0] - col_centre[pu]).powi(2) + (uv[1] - row_centre[pv]).powi(2);
+        let (count, best) = (&mut slot_count[slot as usize], &mut slot_best[slot as usize]);
+        if *count == 0 {
+            active_slots.push(slot);
+            *best = (d, i as u32);
+        } else if d < best.0 {
+            *best = (d, i as u32);
         }
-        *c += 1;
+        *count += 1;
     }
     buf.active_slots.sort_unstable();
-    let mut start = 0u32;
+    buf.robot_lattice.clear();
+    buf.robot_lattice_info.clear();
     for &s in &buf.active_slots {
-        buf.slot_start[s as usize] = start;
-        start += buf.slot_count[s as usize];
+        let best = buf.slot_best[s as usize].1;
+        buf.robot_lattice.push(buf.cam_points[best as usize]);
+        buf.robot_lattice_info.push([best, s, u32::MAX, buf.slot_count[s as usize]]);
     }
     buf.slot_points.clear();
-    buf.slot_points.resize(start as usize, 0);
-    // Fill in ascending point order (slot_count counts down, then is back at 0).
-    for (i, &s) in buf.point_slot.iter().enumerate() {
+    buf.slot_x.clear();
+    buf.slot_y.clear();
+    buf.slot_z.clear();
+}
+
+/// Appends robot point `i` to the slot point lists.
+#[inline]
+fn push_slot_point(buf: &mut Buffers, i: usize) {
+    let p = buf.cam_points[i];
+    buf.slot_points.push(i as u32);
+    buf.slot_x.push(p[0]);
+    buf.slot_y.push(p[1]);
+    buf.slot_z.push(p[2]);
+}
+
+/// Lists the points of robot lattice entry `entry`'s slot (ascending index) in
+/// [`Buffers::slot_points`] and its coordinates, and records where in its info; `points` is
+/// the range of the slot's link in the robot point set (all its points are there). No-op when
+/// already listed this frame.
+pub fn gather_slot(buf: &mut Buffers, entry: usize, points: std::ops::Range<usize>) {
+    let [_, slot, first, _] = buf.robot_lattice_info[entry];
+    if first != u32::MAX {
+        return;
+    }
+    let start = buf.slot_points.len();
+    for i in points {
+        if buf.point_slot[i] == slot {
+            push_slot_point(buf, i);
+        }
+    }
+    debug_assert_eq!((buf.slot_points.len() - start) as u32, buf.robot_lattice_info[entry][3]);
+    buf.robot_lattice_info[entry][2] = start as u32;
+}
+
+/// Lists the points of every slot: grouped by slot in lattice order, ascending index within a
+/// slot (what the GPU path uploads). Replaces any earlier lists of this frame.
+pub fn group_slots(buf: &mut Buffers) {
+    buf.slot_points.clear();
+    buf.slot_x.clear();
+    buf.slot_y.clear();
+    buf.slot_z.clear();
+    let mut first = 0u32;
+    for info in buf.robot_lattice_info.iter_mut() {
+        info[2] = first;
+        buf.slot_best[info[1] as usize].1 = first;
+        first += info[3];
+    }
+    buf.slot_points.resize(first as usize, 0);
+    buf.slot_x.resize(first as usize, 0.0);
+    buf.slot_y.resize(first as usize, 0.0);
+    buf.slot_z.resize(first as usize, 0.0);
+    // `slot_best[s].1` is the write cursor of slot s from here on.
+    for i in 0..buf.point_slot.len() {
+        let s = buf.point_slot[i];
         if s == u32::MAX {
             continue;
         }
-        let s = s as usize;
-        let at = buf.slot_start[s] + buf.slot_count[s] - 1;
-        buf.slot_count[s] -= 1;
-        buf.slot_points[at as usize] = i as u32;
-    }
-    buf.robot_lattice.clear();
-    buf.robot_lattice_info.clear();
-    let half = (tile as f32 - 1.0) * 0.5;
-    let mut first = 0u32;
-    for &s in &buf.active_slots {
-        let tile_index = s / links as u32;
-        let (tx, ty) = (tile_index % tiles_x, tile_index / tiles_x);
-        let (cu, cv) = ((tx * tile) as f32 + half, (ty * tile) as f32 + half);
-        // Points were written from the back of each slot: restore ascending order.
-        let end = if let Some(&next) = buf.active_slots.get(buf.robot_lattice.len() + 1) {
-            buf.slot_start[next as usize]
-        } else {
-            buf.slot_points.len() as u32
-        };
-        let pts = &mut buf.slot_points[first as usize..end as usize];
-        pts.reverse();
-        let mut best = (f32::INFINITY, u32::MAX);
-        for &p in pts.iter() {
-            let uv = buf.point_uv[p as usize];
-            let d = (uv[0] - cu) * (uv[0] - cu) + (uv[1] - cv) * (uv[1] - cv);
-            if d < best.0 {
-                best = (d, p);
-            }
-        }
-        buf.robot_lattice.push(buf.cam_points[best.1 as usize]);
-        buf.robot_lattice_info.push([best.1, s, first, end - first]);
-        first = end;
+        let at = buf.slot_best[s as usize].1 as usize;
+        buf.slot_best[s as usize].1 += 1;
+        let p = buf.cam_points[i];
+        buf.slot_points[at] = i as u32;
+        buf.slot_x[at] = p[0];
+        buf.slot_y[at] = p[1];
+        buf.slot_z[at] = p[2];
     }
 }
 
@@ -342,24 +387,103 @@ pub fn lattice_minimum(
     }
 }
 
-/// Stage 6 for one link: every robot point of lattice entry `lattice`'s slot against `obj`;
-/// lowers `best` when one comes closer.
-pub fn refine_slot(buf_points: &[RobotPoint], slot_points: &[u32], info: [u32; 4], lattice: u32, obj: Objects<'_>, obj_pixel: &[u32], best: &mut LinkBest) {
-    let (first, count) = (info[2] as usize, info[3] as usize);
-    for &pi in &slot_points[first..first + count] {
-        let r = buf_points[pi as usize];
-        let p = [r[0], r[1], r[2]];
-        let m = min_dist2(&p, obj);
-        if m < best.dist2
-            && let Some((j, q)) = argmin_dist2(&p, obj)
-        {
-            *best = LinkBest {
-                dist2: q,
-                robot_point: pi,
-                object_pixel: obj_pixel[j],
-                lattice,
-            };
+/// The robot points of one slot as listed by [`gather_slot`] / [`group_slots`]: point
+/// indices and camera-frame coordinates (structure of arrays, so the distance loop
+/// vectorises).
+#[derive(Debug, Clone, Copy)]
+pub struct SlotPoints<'a> {
+    /// Index of each point in the robot point set.
+    pub index: &'a [u32],
+    /// x, m.
+    pub x: &'a [f32],
+    /// y, m.
+    pub y: &'a [f32],
+    /// z (= d_r), m.
+    pub z: &'a [f32],
+}
+
+impl<'a> SlotPoints<'a> {
+    /// The points of lattice entry `info` (`[point, slot, first, count]`) in `buf`.
+    pub fn of(buf: &'a Buffers, info: [u32; 4]) -> Self {
+        let r = info[2] as usize..(info[2] + info[3]) as usize;
+        Self {
+            index: &buf.slot_points[r.clone()],
+            x: &buf.slot_x[r.clone()],
+            y: &buf.slot_y[r.clone()],
+            z: &buf.slot_z[r],
         }
+    }
+}
+
+/// The smallest [`dist2`] from the object point on ray `(ox, oy)` at depth `od` (gray-area
+/// cap `cap`) to any point of `pts` (∞ when empty). Eight independent lanes so the loop
+/// vectorises.
+#[inline]
+fn min_dist2_points(ox: f32, oy: f32, od: f32, cap: f32, pts: &SlotPoints<'_>) -> f32 {
+    let (xc, xt) = pts.x.as_chunks::<LANES>();
+    let (yc, yt) = pts.y.as_chunks::<LANES>();
+    let (zc, zt) = pts.z.as_chunks::<LANES>();
+    let mut m = [f32::INFINITY; LANES];
+    for ((x, y), z) in xc.iter().zip(yc).zip(zc) {
+        for k in 0..LANES {
+            let q = dist2(&[x[k], y[k], z[k]], ox, oy, od, cap);
+            m[k] = if q < m[k] { q } else { m[k] };
+        }
+    }
+    let mut best = f32::INFINITY;
+    for ((&x, &y), &z) in xt.iter().zip(yt).zip(zt) {
+        let q = dist2(&[x, y, z], ox, oy, od, cap);
+        best = if q < best { q } else { best };
+    }
+    m.iter().fold(best, |a, &b| if b < a { b } else { a })
+}
+
+/// Stage 6 for one link: every robot point of lattice entry `lattice`'s slot (`pts`) against
+/// every object point of `obj`; lowers `best` when a pair comes closer (the closest pair,
+/// ties: the first point of the slot, then the first object point). Object points whose
+/// distance to the slot's bounding box (with the gray area over the slot's depth range) is
+/// already no better than `best` are skipped without visiting the points.
+pub fn refine_slot(pts: &SlotPoints<'_>, lattice: u32, obj: Objects<'_>, obj_pixel: &[u32], best: &mut LinkBest) {
+    if pts.index.is_empty() {
+        return;
+    }
+    let bounds = |v: &[f32]| v.iter().fold([f32::INFINITY, f32::NEG_INFINITY], |a, &x| [a[0].min(x), a[1].max(x)]);
+    let (bx, by, bz) = (bounds(pts.x), bounds(pts.y), bounds(pts.z));
+    let gap = |lo: f32, hi: f32, b: [f32; 2]| {
+        let g = (lo - b[1]).max(b[0] - hi).max(0.0);
+        g * g
+    };
+    let mut found: Option<(f32, usize, usize)> = None;
+    for j in 0..obj.len() {
+        let (ox, oy, od, cap) = (obj.ray_x[j], obj.ray_y[j], obj.depth[j], obj.cap[j]);
+        // The object point's depth against any slot point lies in [dlo, dhi] (eq. 5.17).
+        let (dlo, dhi) = (gray_depth(bz[0], od, cap), gray_depth(bz[1], od, cap));
+        let (x0, x1) = (ox * dlo, ox * dhi);
+        let (y0, y1) = (oy * dlo, oy * dhi);
+        let bound = gap(x0.min(x1), x0.max(x1), bx) + gap(y0.min(y1), y0.max(y1), by) + gap(dlo, dhi, bz);
+        // Rounding slack: a bound a few ulps above a true distance must not skip it.
+        if bound > best.dist2 * (1.0 + 1e-5) {
+            continue;
+        }
+        let m = min_dist2_points(ox, oy, od, cap, pts);
+        let tie = found.is_some_and(|f| m == f.0);
+        if m < best.dist2 || tie {
+            let pos = (0..pts.index.len())
+                .find(|&p| dist2(&[pts.x[p], pts.y[p], pts.z[p]], ox, oy, od, cap) == m)
+                .unwrap_or(0);
+            if !tie || found.is_some_and(|f| pos < f.1) {
+                found = Some((m, pos, j));
+                best.dist2 = m;
+            }
+        }
+    }
+    if let Some((m, pos, j)) = found {
+        *best = LinkBest {
+            dist2: m,
+            robot_point: pts.index[pos],
+            object_pixel: obj_pixel[j],
+            lattice,
+        };
     }
 }
 
@@ -405,8 +529,9 @@ fn classify_into(
         depth: out,
         stride,
     };
-    blocks.build(&samples);
-    mark_robot(view, &samples, blocks, removal, focus, flags);
+    if !mark_robot(view, &samples, blocks, removal, focus, flags) {
+        return;
+    }
     for j in 0..nh {
         let at = j * stride..j * stride + nw;
         for (o, &r) in out[at.clone()].iter_mut().zip(&flags[at]) {
@@ -503,7 +628,8 @@ pub fn window_around(p: u32, half: (u32, u32), width: u32, height: u32) -> (u32,
 /// The `refine_obstacle` addition for one link, after [`classify_window`] classified the
 /// window `(u0, v0, nw, nh)` around the best object pixel (±(S − 1) px), keeping the pixels
 /// closer to the best robot point than the best pair: the closest of them, then every robot
-/// point of the slot against the (possibly new) object pixel. `depth` is the frame's depth.
+/// point of the slot (listed by [`gather_slot`]) against the (possibly new) object pixel.
+/// `depth` is the frame's depth.
 pub fn refine_obstacle(buf: &Buffers, depth: &[f32], k: &Classify, win: (u32, u32, u32, u32), best: &mut LinkBest) {
     if !best.is_some() {
         return;
@@ -539,7 +665,7 @@ pub fn refine_obstacle(buf: &Buffers, depth: &[f32], k: &Classify, win: (u32, u3
     };
     let pix = [op as u32];
     let lattice = best.lattice;
-    refine_slot(&buf.cam_points, &buf.slot_points, buf.robot_lattice_info[lattice as usize], lattice, one, &pix, best);
+    refine_slot(&SlotPoints::of(buf, buf.robot_lattice_info[lattice as usize]), lattice, one, &pix, best);
 }
 
 /// Squared radius around the obstacle point beyond which a pixel's normal-fit weight
@@ -559,29 +685,38 @@ pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), o: [f32; 3], si
     let cut = normal_cut2(sigma);
     // Σw, Σw·q, Σw·q·qᵀ (upper triangle), Σ[w > 0], per lane; q = p − o (small, so f32 holds).
     let mut acc = [[0.0f32; LANES]; 11];
-    let mut add = |k: usize, d: f32, rx: f32, ry: f32| {
-        let q = [rx * d - o[0], ry * d - o[1], d - o[2]];
-        let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
-        let wgt = if d > 0.0 && n2 <= cut { exp_neg(-n2 * inv_s2) } else { 0.0 };
-        let (wx, wy, wz) = (wgt * q[0], wgt * q[1], wgt * q[2]);
-        let terms = [wgt, wx, wy, wz, wx * q[0], wx * q[1], wx * q[2], wy * q[1], wy * q[2], wz * q[2]];
-        for (a, t) in acc.iter_mut().zip(terms) {
-            a[k] += t;
+    let mut lane = [0.0f32; LANES];
+    let mut add = |d: &[f32], x: &[f32], ry: f32| {
+        for (k, (&d, &rx)) in d.iter().zip(x).enumerate() {
+            let q = [rx * d - o[0], ry * d - o[1], d - o[2]];
+            let n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+            let w = exp_neg((-n2 * inv_s2).max(-87.0));
+            lane[k] = if (d > 0.0) & (n2 <= cut) { w } else { 0.0 };
         }
-        acc[10][k] += if wgt > 0.0 { 1.0 } else { 0.0 };
+        for (k, (&d, &rx)) in d.iter().zip(x).enumerate() {
+            let (w, q) = (lane[k], [rx * d - o[0], ry * d - o[1], d - o[2]]);
+            let (wx, wy, wz) = (w * q[0], w * q[1], w * q[2]);
+            acc[0][k] += w;
+            acc[1][k] += wx;
+            acc[2][k] += wy;
+            acc[3][k] += wz;
+            acc[4][k] += wx * q[0];
+            acc[5][k] += wx * q[1];
+            acc[6][k] += wx * q[2];
+            acc[7][k] += wy * q[1];
+            acc[8][k] += wy * q[2];
+            acc[9][k] += wz * q[2];
+            acc[10][k] += if w > 0.0 { 1.0 } else { 0.0 };
+        }
     };
     for j in 0..nh {
         let ry = buf.ray_y[v0 + j];
         let (dc, dt) = buf.window[j * nw..(j + 1) * nw].as_chunks::<LANES>();
         let (xc, xt) = buf.ray_x[u0..u0 + nw].as_chunks::<LANES>();
         for (d, x) in dc.iter().zip(xc) {
-            for k in 0..LANES {
-                add(k, d[k], x[k], ry);
-            }
+            add(d, x, ry);
         }
-        for (&d, &x) in dt.iter().zip(xt) {
-            add(0, d, x, ry);
-        }
+        add(dt, xt, ry);
     }
     let sum = |k: usize| acc[k].iter().map(|&x| f64::from(x)).sum::<f64>();
     let (sw, count) = (sum(0), sum(10));
@@ -610,9 +745,20 @@ pub fn exp_neg(x: f32) -> f32 {
     let f = y - n as f32;
     // 2^f on [0, 1): Taylor series of e^(f ln 2) to degree 6.
     let p = 1.0
-        + f * (0.693_147_2
+        + f * (std::f32::consts::LN_2
             + f * (0.240_226_5 + f * (0.055_504_11 + f * (0.009_618_129 + f * (0.001_333_356 + f * 0.000_154_035_3)))));
     f32::from_bits(((n + 127) as u32) << 23) * p
+}
+
+/// The camera model's ray tables.
+pub fn rays(cam: &Cam, ray_x: &mut [f32], ray_y: &mut [f32], k: &cowork_depth::Intrinsics) {
+    debug_assert_eq!(ray_x.len(), cam.width as usize);
+    for (u, r) in ray_x.iter_mut().enumerate() {
+        *r = ((u as f64 - k.cx) / k.fx) as f32;
+    }
+    for (v, r) in ray_y.iter_mut().enumerate() {
+        *r = ((v as f64 - k.cy) / k.fy) as f32;
+    }
 }
 
 #[cfg(test)]
@@ -627,16 +773,5 @@ mod tests {
             assert!((a - b).abs() <= 2e-5 * b + 1e-37, "{x}: {a} vs {b}");
             x -= 0.0137;
         }
-    }
-}
-
-/// The camera model's ray tables.
-pub fn rays(cam: &Cam, ray_x: &mut [f32], ray_y: &mut [f32], k: &cowork_depth::Intrinsics) {
-    debug_assert_eq!(ray_x.len(), cam.width as usize);
-    for (u, r) in ray_x.iter_mut().enumerate() {
-        *r = ((u as f64 - k.cx) / k.fx) as f32;
-    }
-    for (v, r) in ray_y.iter_mut().enumerate() {
-        *r = ((v as f64 - k.cy) / k.fy) as f32;
     }
 }

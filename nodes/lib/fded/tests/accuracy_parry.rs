@@ -10,7 +10,7 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use parry3d_f64::query;
 use parry3d_f64::shape::{Ball, Cuboid, Shape};
 
-const Q: [f64; 7] = [0.0, 0.5236, 0.0, 1.5708, 0.0, 1.0472, 0.0];
+const Q: [f64; 7] = [0.0, std::f64::consts::FRAC_PI_6, 0.0, std::f64::consts::FRAC_PI_2, 0.0, std::f64::consts::FRAC_PI_3, 0.0];
 
 /// Exact per-link distances (parry) and the index of the closest link.
 fn parry_distances(shape: &dyn Shape, pose: &Isometry3<f64>) -> (Vec<Option<f64>>, usize) {

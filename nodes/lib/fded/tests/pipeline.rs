@@ -68,7 +68,8 @@ fn robot_lattice_has_one_point_per_tile_and_link() {
     let (k, cam) = setup();
     let depth = scene(&k, &cam);
     for tile in [8u32, 32] {
-        let (f, _) = run(FdedParams { tile_size: tile, ..FdedParams::default() }, &depth, 0.0);
+        let (mut f, _) = run(FdedParams { tile_size: tile, ..FdedParams::default() }, &depth, 0.0);
+        f.group_slots();
         let b = f.buffers();
         let links = f.model().link_count() as u32;
         let tiles_x = k.width.div_ceil(tile);
@@ -200,5 +201,5 @@ fn flacco_sees_a_near_sphere_and_defaults_without_one() {
     sphere(&mut d, &k, &cam, Point3::new(0.0, 0.3, 0.6), 0.1);
     fl.distances(&mut f, &Frame { stamp: 0.0, depth: &d, camera_pose: &cam, joints: Some(&Q) }, &mut per_link).unwrap();
     let min = per_link.iter().flatten().fold(f64::INFINITY, |a, &b| a.min(b));
-    assert!(min < 0.5 && min >= 0.0, "{min}");
+    assert!((0.0..0.5).contains(&min), "{min}");
 }

@@ -88,7 +88,7 @@ impl GpuFded {
         let samples = buf.lattice_robot.len().max(1) as u64;
         let lattice_cap = buf.robot_lattice.capacity().max(1) as u64;
         let refine_cap = links * points;
-        let max_binding = u64::from(ctx.limits().max_storage_buffer_binding_size);
+        let max_binding = ctx.limits().max_storage_buffer_binding_size;
         if refine_cap * 16 > max_binding || samples * 16 > max_binding {
             return Err(GpuError::Unsupported {
                 reason: format!("fDED buffers exceed the adapter's storage binding size {max_binding} B"),
@@ -208,6 +208,7 @@ impl GpuFded {
     pub fn process(&mut self, frame: &Frame<'_>, out: &mut FdedOutput) -> Result<()> {
         let mut times = self.host.front(frame)?;
         let t1 = Instant::now();
+        self.host.group_slots();
         let buf = self.host.buffers();
         let links = self.host.model().link_count() as u32;
         self.objects.clear();
