@@ -143,6 +143,8 @@ pub struct Buffers {
     /// Per slot: (squared pixel distance to the tile centre, index) of its best point this
     /// frame (valid for the active slots; a write cursor in [`group_slots`](crate::stages::group_slots)).
     pub slot_best: Vec<(f32, u32)>,
+    /// Per slot: its robot lattice entry (set by [`group_slots`](crate::stages::group_slots)).
+    pub slot_entry: Vec<u32>,
     /// Slots holding points this frame, ascending.
     pub active_slots: Vec<u32>,
     /// Slot of each robot point (`u32::MAX` when not in the image).
@@ -156,6 +158,9 @@ pub struct Buffers {
     pub slot_y: Vec<f32>,
     /// Camera-frame z (= d_r), m.
     pub slot_z: Vec<f32>,
+    /// Per robot lattice entry: the camera-frame bounding box of its slot's points,
+    /// `[x_min, x_max, y_min, y_max, z_min, z_max]` (m), once listed.
+    pub slot_bounds: Vec<[f32; 6]>,
     /// Robot lattice points (stage 3): per slot the point closest to the tile centre.
     pub robot_lattice: Vec<RobotPoint>,
     /// Per robot lattice point: `[point index, slot, first, count]` — its robot point, its slot,
@@ -249,12 +254,14 @@ impl Buffers {
             row_centre: (0..height).map(|v| ((v / t) * t) as f32 + (t as f32 - 1.0) * 0.5).collect(),
             slot_count: vec![0; slots],
             slot_best: vec![(0.0, 0); slots],
+            slot_entry: vec![0; slots],
             active_slots: Vec::with_capacity(points.min(slots)),
             point_slot: vec![u32::MAX; points],
             slot_points: Vec::with_capacity(points),
             slot_x: Vec::with_capacity(points),
             slot_y: Vec::with_capacity(points),
             slot_z: Vec::with_capacity(points),
+            slot_bounds: Vec::with_capacity(points.min(slots)),
             robot_lattice: Vec::with_capacity(points.min(slots)),
             robot_lattice_info: Vec::with_capacity(points.min(slots)),
             lattice_nx: nx,

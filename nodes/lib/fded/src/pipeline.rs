@@ -502,7 +502,7 @@ impl Fded {
                 for (l, lb) in link_best.iter().enumerate() {
                     if lb.is_some() {
                         let e = lb.lattice;
-                        let pts = SlotPoints::of(shared, shared.robot_lattice_info[e as usize]);
+                        let pts = SlotPoints::of(shared, e as usize);
                         refine_slot(&pts, e, obj, &opix[r.clone()], &mut best[l]);
                     }
                 }

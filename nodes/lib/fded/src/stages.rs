@@ -234,6 +234,9 @@ pub fn robot_lattice(buf: &mut Buffers) {
         slot_count[s as usize] = 0;
     }
     active_slots.clear();
+    // Slices, not `Vec`s, in the loop: their pointers stay in registers.
+    let (col_slot, col_centre, row_slot, row_centre) = (&col_slot[..], &col_centre[..], &row_slot[..], &row_centre[..]);
+    let (slot_count, slot_best) = (&mut slot_count[..], &mut slot_best[..]);
     for (i, ((uv, p), ps)) in point_uv.iter().zip(cam_points.iter()).zip(point_slot.iter_mut()).enumerate() {
         if uv[0].is_nan() {
             *ps = u32::MAX;
@@ -256,15 +259,28 @@ pub fn robot_lattice(buf: &mut Buffers) {
     buf.active_slots.sort_unstable();
     buf.robot_lattice.clear();
     buf.robot_lattice_info.clear();
+    buf.slot_bounds.clear();
     for &s in &buf.active_slots {
         let best = buf.slot_best[s as usize].1;
         buf.robot_lattice.push(buf.cam_points[best as usize]);
         buf.robot_lattice_info.push([best, s, u32::MAX, buf.slot_count[s as usize]]);
+        buf.slot_bounds.push(EMPTY_BOUNDS);
     }
     buf.slot_points.clear();
     buf.slot_x.clear();
     buf.slot_y.clear();
     buf.slot_z.clear();
+}
+
+/// The bounds of no point.
+const EMPTY_BOUNDS: [f32; 6] = [f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::NEG_INFINITY];
+
+/// `b` grown to hold point `p`.
+#[inline]
+fn grow(b: [f32; 6], p: &RobotPoint) -> [f32; 6] {
+    let lo = |a: f32, x: f32| if x < a { x } else { a };
+    let hi = |a: f32, x: f32| if x > a { x } else { a };
+    [lo(b[0], p[0]), hi(b[1], p[0]), lo(b[2], p[1]), hi(b[3], p[1]), lo(b[4], p[2]), hi(b[5], p[2])]
 }
 
 /// Appends robot point `i` to the slot point lists.
@@ -287,11 +303,14 @@ pub fn gather_slot(buf: &mut Buffers, entry: usize, points: std::ops::Range<usiz
         return;
     }
     let start = buf.slot_points.len();
+    let mut b = EMPTY_BOUNDS;
     for i in points {
         if buf.point_slot[i] == slot {
             push_slot_point(buf, i);
+            b = grow(b, &buf.cam_points[i]);
         }
     }
+    buf.slot_bounds[entry] = b;
     debug_assert_eq!((buf.slot_points.len() - start) as u32, buf.robot_lattice_info[entry][3]);
     buf.robot_lattice_info[entry][2] = start as u32;
 }
@@ -304,10 +323,12 @@ pub fn group_slots(buf: &mut Buffers) {
     buf.slot_y.clear();
     buf.slot_z.clear();
     let mut first = 0u32;
-    for info in buf.robot_lattice_info.iter_mut() {
+    for (e, (info, b)) in buf.robot_lattice_info.iter_mut().zip(buf.slot_bounds.iter_mut()).enumerate() {
         info[2] = first;
         buf.slot_best[info[1] as usize].1 = first;
+        buf.slot_entry[info[1] as usize] = e as u32;
         first += info[3];
+        *b = EMPTY_BOUNDS;
     }
     buf.slot_points.resize(first as usize, 0);
     buf.slot_x.resize(first as usize, 0.0);
@@ -322,6 +343,8 @@ pub fn group_slots(buf: &mut Buffers) {
         let at = buf.slot_best[s as usize].1 as usize;
         buf.slot_best[s as usize].1 += 1;
         let p = buf.cam_points[i];
+        let e = buf.slot_entry[s as usize] as usize;
+        buf.slot_bounds[e] = grow(buf.slot_bounds[e], &p);
         buf.slot_points[at] = i as u32;
         buf.slot_x[at] = p[0];
         buf.slot_y[at] = p[1];
@@ -400,17 +423,21 @@ pub struct SlotPoints<'a> {
     pub y: &'a [f32],
     /// z (= d_r), m.
     pub z: &'a [f32],
+    /// Their bounding box `[x_min, x_max, y_min, y_max, z_min, z_max]`, m.
+    pub bounds: [f32; 6],
 }
 
 impl<'a> SlotPoints<'a> {
-    /// The points of lattice entry `info` (`[point, slot, first, count]`) in `buf`.
-    pub fn of(buf: &'a Buffers, info: [u32; 4]) -> Self {
+    /// The points of robot lattice entry `entry` in `buf` (listed).
+    pub fn of(buf: &'a Buffers, entry: usize) -> Self {
+        let info = buf.robot_lattice_info[entry];
         let r = info[2] as usize..(info[2] + info[3]) as usize;
         Self {
             index: &buf.slot_points[r.clone()],
             x: &buf.slot_x[r.clone()],
             y: &buf.slot_y[r.clone()],
             z: &buf.slot_z[r],
+            bounds: buf.slot_bounds[entry],
         }
     }
 }
@@ -447,8 +474,8 @@ pub fn refine_slot(pts: &SlotPoints<'_>, lattice: u32, obj: Objects<'_>, obj_pix
     if pts.index.is_empty() {
         return;
     }
-    let bounds = |v: &[f32]| v.iter().fold([f32::INFINITY, f32::NEG_INFINITY], |a, &x| [a[0].min(x), a[1].max(x)]);
-    let (bx, by, bz) = (bounds(pts.x), bounds(pts.y), bounds(pts.z));
+    let b = pts.bounds;
+    let (bx, by, bz) = ([b[0], b[1]], [b[2], b[3]], [b[4], b[5]]);
     let gap = |lo: f32, hi: f32, b: [f32; 2]| {
         let g = (lo - b[1]).max(b[0] - hi).max(0.0);
         g * g
@@ -665,7 +692,7 @@ pub fn refine_obstacle(buf: &Buffers, depth: &[f32], k: &Classify, win: (u32, u3
     };
     let pix = [op as u32];
     let lattice = best.lattice;
-    refine_slot(&SlotPoints::of(buf, buf.robot_lattice_info[lattice as usize]), lattice, one, &pix, best);
+    refine_slot(&SlotPoints::of(buf, lattice as usize), lattice, one, &pix, best);
 }
 
 /// Squared radius around the obstacle point beyond which a pixel's normal-fit weight
