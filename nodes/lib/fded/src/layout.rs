@@ -125,6 +125,8 @@ pub struct Buffers {
     pub chunk_z: Vec<[f32; 2]>,
     /// Per triangle chunk: its bounding sphere in the camera frame, `[x, y, z, radius]`, m.
     pub chunk_sphere: Vec<[f32; 4]>,
+    /// The chunks not turned away from the camera this frame, ascending.
+    pub visible_chunks: Vec<u32>,
     /// The robot point set in the camera frame, `[x, y, z, link]`, this frame.
     pub cam_points: Vec<RobotPoint>,
     /// Projection `[u, v]` of each robot point, px (NaN when outside the image or behind the
@@ -246,6 +248,7 @@ impl Buffers {
             chunk_box: vec![[0.0; 4]; chunks],
             chunk_z: vec![[0.0; 2]; chunks],
             chunk_sphere: vec![[0.0; 4]; chunks],
+            visible_chunks: Vec::with_capacity(chunks),
             cam_points: vec![[0.0; 4]; points],
             point_uv: vec![[0.0; 2]; points],
             col_slot: (0..width).map(|u| (u / t) * links as u32).collect(),

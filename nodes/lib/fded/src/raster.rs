@@ -424,6 +424,7 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
     const CULLED: [f32; 4] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
     let mut link = usize::MAX;
     let (mut r, mut p) = (Matrix3::<f32>::identity(), Vector3::<f32>::zeros());
+    out.visible_chunks.clear();
     for (c, ch) in meshes.chunks.iter().enumerate() {
         if ch.link != link {
             link = ch.link;
@@ -464,6 +465,7 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
         } else {
             [f32::NEG_INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::INFINITY]
         };
+        out.visible_chunks.push(c as u32);
     }
 }
 
@@ -483,6 +485,8 @@ pub struct RobotView<'a> {
     pub chunk_z: &'a [[f32; 2]],
     /// [`Buffers::chunk_sphere`].
     pub chunk_sphere: &'a [[f32; 4]],
+    /// [`Buffers::visible_chunks`].
+    pub visible: &'a [u32],
 }
 
 /// Depth samples on a [`Grid`]: the candidate depth of sample `(i, j)` (m; 0 where the pixel
@@ -603,10 +607,10 @@ struct TriTest {
 }
 
 impl TriTest {
-    /// The test for triangle `t`, or `None` when a corner is behind the near plane, it faces
-    /// away from the camera or it is degenerate in the image.
+    /// The pixel part of the test for triangle `t` (corners, grown box), or `None` when a
+    /// corner is behind the near plane; [`finish`](Self::finish) completes it.
     #[inline]
-    fn new(view: &RobotView<'_>, t: usize, k: &Removal) -> Option<Self> {
+    fn start(view: &RobotView<'_>, t: usize, k: &Removal) -> Option<(Self, [u32; 3])> {
         let m = k.margin;
         let tri = view.meshes.triangles[t];
         let (pa, pb, pc) = (view.vertex_uv[tri[0] as usize], view.vertex_uv[tri[1] as usize], view.vertex_uv[tri[2] as usize]);
@@ -619,18 +623,26 @@ impl TriTest {
             pa[0].max(pb[0]).max(pc[0]) + m,
             pa[1].max(pb[1]).max(pc[1]) + m,
         ];
-        Some(Self {
+        let t0 = Self {
             p: [pa, pb, pc],
             sgn: 0.0,
             tol: [0.0; 3],
             inv_z: [0.0; 3],
             z: [0.0; 2],
             bbox,
-        })
-        .and_then(|t0| t0.finish(view, tri, k))
+        };
+        Some((t0, tri))
     }
 
-    /// The 3-D part of [`new`](Self::new), once the pixel box is known to matter.
+    /// `true` when pixel `p` lies in the grown box.
+    #[inline]
+    fn boxes(&self, p: [f32; 2]) -> bool {
+        let b = &self.bbox;
+        p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3]
+    }
+
+    /// The 3-D part of the test, once the pixel box is known to matter: `None` when the
+    /// triangle faces away from the camera or is degenerate in the image.
     #[inline]
     fn finish(mut self, view: &RobotView<'_>, tri: [u32; 3], k: &Removal) -> Option<Self> {
         let (a, b, c) = (
@@ -715,7 +727,8 @@ pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &mut DepthBlock
     let (mut built, mut any) = (false, false);
     // Candidate samples of a small chunk: (flag index, pixel, depth).
     let mut few = [(0usize, [0.0f32; 2], 0.0f32); FEW_SAMPLES];
-    for (c, ch) in view.meshes.chunks.iter().enumerate() {
+    for &c in view.visible {
+        let (c, ch) = (c as usize, &view.meshes.chunks[c as usize]);
         let cb = &view.chunk_box[c];
         if cb[0] > extent[2] || cb[2] < extent[0] || cb[1] > extent[3] || cb[3] < extent[1] {
             continue;
@@ -748,10 +761,13 @@ pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &mut DepthBlock
                 continue;
             }
             for t in ch.triangles.clone() {
-                let Some(tt) = TriTest::new(view, t, k) else { continue };
+                let Some((t0, tri)) = TriTest::start(view, t, k) else { continue };
+                if !few[..n].iter().any(|&(fi, p, _)| flags[fi] == 0 && t0.boxes(p)) {
+                    continue;
+                }
+                let Some(tt) = t0.finish(view, tri, k) else { continue };
                 for &(fi, p, d) in &few[..n] {
-                    let b = &tt.bbox;
-                    if flags[fi] == 0 && p[0] >= b[0] && p[0] <= b[2] && p[1] >= b[1] && p[1] <= b[3] && tt.removes(p, d, k.delta) {
+                    if flags[fi] == 0 && tt.boxes(p) && tt.removes(p, d, k.delta) {
                         flags[fi] = 1;
                         any = true;
                     }
@@ -767,7 +783,11 @@ pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &mut DepthBlock
             continue;
         }
         for t in ch.triangles.clone() {
-            let Some(tt) = TriTest::new(view, t, k) else { continue };
+            let Some((t0, tri)) = TriTest::start(view, t, k) else { continue };
+            if s.in_box(&t0.bbox).is_none() {
+                continue;
+            }
+            let Some(tt) = t0.finish(view, tri, k) else { continue };
             let Some(trange @ (i_lo, i_hi, j_lo, j_hi)) = s.in_box(&tt.bbox) else { continue };
             if !blocks.meets(trange, tt.z[0], tt.z[1]) {
                 continue;

@@ -169,6 +169,7 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         chunk_box,
         chunk_z,
         chunk_sphere,
+        visible_chunks,
         lattice_nx,
         lattice_ny,
         lattice_depth,
@@ -205,6 +206,7 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         chunk_box,
         chunk_z,
         chunk_sphere,
+        visible: visible_chunks,
     };
     lattice_robot.fill(0);
     mark_robot(&view, &samples, depth_blocks, removal, None, lattice_robot);
@@ -583,6 +585,7 @@ pub fn classify_full(meshes: &RobotMeshes, depth: &[f32], k: &Classify, removal:
         chunk_box,
         chunk_z,
         chunk_sphere,
+        visible_chunks,
         depth_blocks,
         filtered,
         robot_flags,
@@ -595,6 +598,7 @@ pub fn classify_full(meshes: &RobotMeshes, depth: &[f32], k: &Classify, removal:
         chunk_box,
         chunk_z,
         chunk_sphere,
+        visible: visible_chunks,
     };
     let w = *width as usize;
     let rect = (0, 0, *width, *height);
@@ -625,6 +629,7 @@ pub fn classify_window(
         chunk_box,
         chunk_z,
         chunk_sphere,
+        visible_chunks,
         depth_blocks,
         window,
         window_robot,
@@ -637,6 +642,7 @@ pub fn classify_window(
         chunk_box,
         chunk_z,
         chunk_sphere,
+        visible: visible_chunks,
     };
     let target = (&mut window[..], &mut window_robot[..], win.2 as usize);
     classify_into(&view, depth, *width as usize, (ray_x, ray_y), removal, win, keep, focus, depth_blocks, target);
