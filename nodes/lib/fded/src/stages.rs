@@ -747,7 +747,10 @@ pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), o: [f32; 3], si
         let (dc, dt) = buf.window[j * nw..(j + 1) * nw].as_chunks::<LANES>();
         let (xc, xt) = buf.ray_x[u0..u0 + nw].as_chunks::<LANES>();
         for (d, x) in dc.iter().zip(xc) {
-            add(d, x, ry);
+            // Whole groups outside the kept set (no candidate, beyond the cut) cost nothing.
+            if d.iter().any(|&v| v > 0.0) {
+                add(d, x, ry);
+            }
         }
         add(dt, xt, ry);
     }
