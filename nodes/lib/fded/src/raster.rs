@@ -499,6 +499,8 @@ pub struct Samples<'a> {
     pub depth: &'a [f32],
     /// Row stride of `depth` (and of the flags), samples.
     pub stride: usize,
+    /// Bounds of the candidate depths, m (`[0, ∞]` when unknown).
+    pub zrange: [f32; 2],
 }
 
 impl Samples<'_> {
@@ -741,9 +743,12 @@ pub fn mark_robot(view: &RobotView<'_>, s: &Samples<'_>, blocks: &mut DepthBlock
                 continue;
             }
         }
-        let Some(range) = s.in_box(cb) else { continue };
         let cz = view.chunk_z[c];
         let (zlo, zhi) = (cz[0] - k.delta, cz[1] + k.delta);
+        if zhi < s.zrange[0] || zlo > s.zrange[1] {
+            continue;
+        }
+        let Some(range) = s.in_box(cb) else { continue };
         let (i_lo, i_hi, j_lo, j_hi) = range;
         if ((i_hi - i_lo + 1) * (j_hi - j_lo + 1)) as usize <= FEW_SAMPLES {
             let mut n = 0;

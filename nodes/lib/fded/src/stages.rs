@@ -178,13 +178,19 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         ..
     } = buf;
     let (w, nx) = (*width as usize, *lattice_nx as usize);
+    let mut zr = [f32::INFINITY, f32::NEG_INFINITY];
     for (j, out) in lattice_depth.chunks_exact_mut(nx).enumerate() {
         let v = j * step.1 as usize;
         let (row, ry) = (&depth[v * w..(v + 1) * w], ray_y[v]);
         for (i, o) in out.iter_mut().enumerate() {
             let u = i * step.0 as usize;
             let d = row[u];
-            *o = if k.candidate(d, ray_x[u], ry) { d } else { 0.0 };
+            *o = if k.candidate(d, ray_x[u], ry) {
+                zr = [zr[0].min(d), zr[1].max(d)];
+                d
+            } else {
+                0.0
+            };
         }
     }
     let samples = Samples {
@@ -198,6 +204,7 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         },
         depth: lattice_depth,
         stride: nx,
+        zrange: zr,
     };
     let view = RobotView {
         meshes,
@@ -537,28 +544,43 @@ fn classify_into(
     if nw == 0 || nh == 0 {
         return;
     }
+    // The kept pixels' bounding box (columns, rows) and depth range.
+    let (mut cols, mut rows, mut zr) = ([usize::MAX, 0], [usize::MAX, 0], [f32::INFINITY, f32::NEG_INFINITY]);
     for j in 0..nh {
         let (v, at) = (v0 + j, j * stride..j * stride + nw);
         let ry = rays.1[v];
         let row = &depth[v * width + u0..v * width + u0 + nw];
-        for ((o, &d), &rx) in out[at.clone()].iter_mut().zip(row).zip(&rays.0[u0..u0 + nw]) {
-            *o = if keep(d, rx, ry) { d } else { 0.0 };
+        for (i, ((o, &d), &rx)) in out[at.clone()].iter_mut().zip(row).zip(&rays.0[u0..u0 + nw]).enumerate() {
+            *o = if keep(d, rx, ry) {
+                cols = [cols[0].min(i), cols[1].max(i)];
+                rows = [rows[0].min(j), rows[1].max(j)];
+                zr = [zr[0].min(d), zr[1].max(d)];
+                d
+            } else {
+                0.0
+            };
         }
         flags[at].fill(0);
     }
+    if cols[0] > cols[1] {
+        return;
+    }
+    // Removal needs only the box of the kept pixels.
+    let first = rows[0] * stride + cols[0];
     let samples = Samples {
         grid: Grid {
-            u0: rect.0,
-            v0: rect.1,
+            u0: rect.0 + cols[0] as u32,
+            v0: rect.1 + rows[0] as u32,
             su: 1,
             sv: 1,
-            nx: rect.2,
-            ny: rect.3,
+            nx: (cols[1] - cols[0] + 1) as u32,
+            ny: (rows[1] - rows[0] + 1) as u32,
         },
-        depth: out,
+        depth: &out[first..],
         stride,
+        zrange: zr,
     };
-    if !mark_robot(view, &samples, blocks, removal, focus, flags) {
+    if !mark_robot(view, &samples, blocks, removal, focus, &mut flags[first..]) {
         return;
     }
     for j in 0..nh {
