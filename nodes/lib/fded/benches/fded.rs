@@ -1,8 +1,10 @@
 //! Criterion benchmark of one fDED frame at the thesis parameter set (T_s = 32, S = 16) on the
-//! synthetic static scene, one thread and two, plus the worst case at S = 32.
+//! synthetic static scene, one thread and two, Flacco et al. on the same frame (robot removal
+//! included, as for fDED), plus the worst case at S = 32.
 
 use std::hint::black_box;
 
+use cowork_fded::baseline::{Flacco, FlaccoParams};
 use cowork_fded::bench::{static_scene, worst_case};
 use cowork_fded::{Fded, FdedParams};
 use cowork_robot::RobotModel;
@@ -25,6 +27,18 @@ fn bench(c: &mut Criterion) {
             b.iter(|| {
                 f.process(black_box(&frame), &mut out).expect("frame");
                 black_box(out.closest)
+            })
+        });
+    }
+    {
+        let mut f = Fded::new(&model, &scene.intrinsics, FdedParams::default()).expect("fded");
+        let mut fl = Flacco::new(&model, FlaccoParams::default());
+        let mut per_link = Vec::new();
+        let frame = scene.frame(0);
+        c.bench_function("flacco_static_threads1", |b| {
+            b.iter(|| {
+                fl.distances(&mut f, black_box(&frame), &mut per_link).expect("frame");
+                black_box(per_link.len())
             })
         });
     }

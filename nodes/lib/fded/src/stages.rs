@@ -292,16 +292,6 @@ fn grow(b: [f32; 6], p: &RobotPoint) -> [f32; 6] {
     [lo(b[0], p[0]), hi(b[1], p[0]), lo(b[2], p[1]), hi(b[3], p[1]), lo(b[4], p[2]), hi(b[5], p[2])]
 }
 
-/// Appends robot point `i` to the slot point lists.
-#[inline]
-fn push_slot_point(buf: &mut Buffers, i: usize) {
-    let p = buf.cam_points[i];
-    buf.slot_points.push(i as u32);
-    buf.slot_x.push(p[0]);
-    buf.slot_y.push(p[1]);
-    buf.slot_z.push(p[2]);
-}
-
 /// Lists the points of robot lattice entry `entry`'s slot (ascending index) in
 /// [`Buffers::slot_points`] and its coordinates, and records where in its info; `points` is
 /// the range of the slot's link in the robot point set (all its points are there). No-op when
@@ -313,10 +303,15 @@ pub fn gather_slot(buf: &mut Buffers, entry: usize, points: std::ops::Range<usiz
     }
     let start = buf.slot_points.len();
     let mut b = EMPTY_BOUNDS;
-    for i in points {
-        if buf.point_slot[i] == slot {
-            push_slot_point(buf, i);
-            b = grow(b, &buf.cam_points[i]);
+    let first = points.start;
+    for (k, &s) in buf.point_slot[points].iter().enumerate() {
+        if s == slot {
+            let (i, p) = (first + k, buf.cam_points[first + k]);
+            buf.slot_points.push(i as u32);
+            buf.slot_x.push(p[0]);
+            buf.slot_y.push(p[1]);
+            buf.slot_z.push(p[2]);
+            b = grow(b, &p);
         }
     }
     buf.slot_bounds[entry] = b;
