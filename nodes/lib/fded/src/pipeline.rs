@@ -194,8 +194,10 @@ impl Fded {
         let points = RobotPointSet::from_meshes(&meshes, params.robot_point_spacing);
         let (refine_half, normal_half) = window_halves(&params, cam.width, cam.height);
         let side = |h: u32, n: u32| (2 * h + 1).min(n) as usize;
+        // Room for the union of a few overlapping normal windows (see `fit_normals`).
         let window = (side(refine_half.0, cam.width) * side(refine_half.1, cam.height))
-            .max(side(normal_half, cam.width) * side(normal_half, cam.height));
+            .max(4 * side(normal_half, cam.width) * side(normal_half, cam.height))
+            .min(cam.width as usize * cam.height as usize);
         let mut buf = Buffers::new(
             cam.width,
             cam.height,
@@ -543,26 +545,77 @@ impl Fded {
         }
     }
 
-    /// The normal of the obstacle surface at camera-frame point `o` (pixel `object_pixel`):
-    /// the window of L pixels around it, keeping the candidates within the fit's cut-off
-    /// radius of `o`; robot removal there needs only the triangles that can reach that ball.
-    fn fit_normal(&mut self, depth: &[f32], object_pixel: u32, o: [f32; 3]) -> Option<Vector3<f32>> {
+    /// Stage 7: the normal of the obstacle surface at every link's (distinct) obstacle pixel,
+    /// into `self.normals`. Each fit takes the window of L pixels around its pixel, keeping the
+    /// candidates within the fit's cut-off ball of its point; robot removal there needs only
+    /// the triangles that can reach that ball. Windows that overlap (links sharing an obstacle
+    /// region) are classified together, once, when their union is no larger than they are
+    /// apart: the union keeps the pixels in any of the balls, and each fit's own cut-off drops
+    /// the others, so every fit sees exactly its own pixels.
+    fn fit_normals(&mut self, depth: &[f32]) {
+        self.normals.clear();
         let (_, half) = window_halves(&self.params, self.cam.width, self.cam.height);
-        let win = window_around(object_pixel, (half, half), self.cam.width, self.cam.height);
-        let sigma = self.params.normal_sigma as f32;
+        let (w, sigma) = (self.cam.width as usize, self.params.normal_sigma as f32);
         let (cut2, k) = (normal_cut2(sigma), self.classify);
-        let keep = |d: f32, rx: f32, ry: f32| {
-            let q = [rx * d - o[0], ry * d - o[1], d - o[2]];
-            k.candidate(d, rx, ry) && q[0] * q[0] + q[1] * q[1] + q[2] * q[2] <= cut2
-        };
+        // Distinct obstacle pixels, their camera-frame points (measured depth) and windows.
+        let mut fits = [(0u32, [0.0f32; 3], (0u32, 0u32, 0u32, 0u32)); MAX_LINKS];
+        let mut n = 0;
+        for b in &self.buf.link_best {
+            if b.is_some() && !fits[..n].iter().any(|f| f.0 == b.object_pixel) {
+                let op = b.object_pixel as usize;
+                let d0 = depth[op];
+                let o = [self.buf.ray_x[op % w] * d0, self.buf.ray_y[op / w] * d0, d0];
+                fits[n] = (b.object_pixel, o, window_around(b.object_pixel, (half, half), self.cam.width, self.cam.height));
+                n += 1;
+            }
+        }
+        let fits = &fits[..n];
+        if fits.is_empty() {
+            return;
+        }
         // A triangle removes a pixel within δ of its depth and (growth included) about
         // 1.5 · margin px of it, i.e. 1.5 · margin · z / f m at depth z ≤ d_o + cut.
         let reach = cut2.sqrt();
-        let px = (o[2] + reach) / self.cam.fx.min(self.cam.fy);
-        let slack = self.removal.delta + 1.5 * self.removal.margin * px + 1e-3;
-        let focus = [o[0], o[1], o[2], reach + slack];
-        classify_window(&self.meshes, depth, &self.removal, win, keep, Some(focus), &mut self.buf);
-        obstacle_normal(&self.buf, win, o, sigma)
+        let slack = |o: &[f32; 3]| self.removal.delta + 1.5 * self.removal.margin * (o[2] + reach) / self.cam.fx.min(self.cam.fy) + 1e-3;
+        let area = |r: &(u32, u32, u32, u32)| r.2 as usize * r.3 as usize;
+        let union = fits.iter().fold((u32::MAX, u32::MAX, 0, 0), |u, f| {
+            let r = f.2;
+            (u.0.min(r.0), u.1.min(r.1), u.2.max(r.0 + r.2), u.3.max(r.1 + r.3))
+        });
+        let union = (union.0, union.1, union.2 - union.0, union.3 - union.1);
+        let apart: usize = fits.iter().map(|f| area(&f.2)).sum();
+        if fits.len() > 1 && area(&union) <= apart && area(&union) <= self.buf.window.len() {
+            let centre = fits.iter().fold([0.0f32; 3], |c, f| [c[0] + f.1[0], c[1] + f.1[1], c[2] + f.1[2]]).map(|c| c / fits.len() as f32);
+            let radius = fits
+                .iter()
+                .map(|f| ((f.1[0] - centre[0]).powi(2) + (f.1[1] - centre[1]).powi(2) + (f.1[2] - centre[2]).powi(2)).sqrt() + reach + slack(&f.1))
+                .fold(0.0f32, f32::max);
+            let keep = |d: f32, rx: f32, ry: f32| {
+                k.candidate(d, rx, ry)
+                    && fits.iter().any(|f| {
+                        let q = [rx * d - f.1[0], ry * d - f.1[1], d - f.1[2]];
+                        q[0] * q[0] + q[1] * q[1] + q[2] * q[2] <= cut2
+                    })
+            };
+            classify_window(&self.meshes, depth, &self.removal, union, keep, Some([centre[0], centre[1], centre[2], radius]), &mut self.buf);
+            for f in fits {
+                let first = (f.2.1 - union.1) as usize * union.2 as usize + (f.2.0 - union.0) as usize;
+                let n = obstacle_normal(&self.buf, (union.2 as usize, first), f.2, f.1, sigma);
+                self.normals.push((f.0, n));
+            }
+        } else {
+            for f in fits {
+                let o = f.1;
+                let keep = |d: f32, rx: f32, ry: f32| {
+                    let q = [rx * d - o[0], ry * d - o[1], d - o[2]];
+                    k.candidate(d, rx, ry) && q[0] * q[0] + q[1] * q[1] + q[2] * q[2] <= cut2
+                };
+                let focus = [o[0], o[1], o[2], reach + slack(&o)];
+                classify_window(&self.meshes, depth, &self.removal, f.2, keep, Some(focus), &mut self.buf);
+                let n = obstacle_normal(&self.buf, (f.2.2 as usize, 0), f.2, o, sigma);
+                self.normals.push((f.0, n));
+            }
+        }
     }
 
     /// Stage 7 and the output: normals, velocities, base-frame points, global minimum.
@@ -578,7 +631,7 @@ impl Fded {
         let w = self.cam.width as usize;
         out.stamp = frame.stamp;
         out.closest = None;
-        self.normals.clear();
+        self.fit_normals(depth);
         let mut closest = f64::INFINITY;
         for l in 0..links {
             let b = self.buf.link_best[l];
@@ -594,16 +647,7 @@ impl Fded {
             let od = depth[op];
             let d_o = gray_depth(rp[2], od, self.classify.gray_cap(od, rx, ry));
             let o = Vector3::new(rx * d_o, ry * d_o, d_o);
-            let cached = self.normals.iter().find(|(p, _)| *p == b.object_pixel).map(|&(_, n)| n);
-            let fitted = match cached {
-                Some(n) => n,
-                None => {
-                    let d0 = depth[op];
-                    let n = self.fit_normal(depth, b.object_pixel, [rx * d0, ry * d0, d0]);
-                    self.normals.push((b.object_pixel, n));
-                    n
-                }
-            };
+            let fitted = self.normals.iter().find(|(p, _)| *p == b.object_pixel).and_then(|&(_, n)| n);
             let n_cam = fitted
                 .map(|n| if n.dot(&(r - o)) < 0.0 { -n } else { n })
                 .or_else(|| (r - o).try_normalize(1e-9))

@@ -726,10 +726,11 @@ pub fn normal_cut2(sigma: f32) -> f32 {
 
 /// Stage 7: the obstacle normal at camera-frame point `o` (unit, unoriented), from a weighted
 /// least-squares plane through the obstacle pixels of the window `(u0, v0, nw, nh)`
-/// classified by [`classify_window`] (thesis: L = 1 % of the image's points), weights
+/// classified by [`classify_window`] (thesis: L = 1 % of the image's points) — in
+/// [`Buffers::window`] with row stride `stride` from index `first` — weights
 /// `exp(−‖p − o‖² / σ²)`, pixels beyond [`normal_cut2`] dropped. `None` when fewer than 3
 /// points or a degenerate fit.
-pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), o: [f32; 3], sigma: f32) -> Option<Vector3<f32>> {
+pub fn obstacle_normal(buf: &Buffers, (stride, first): (usize, usize), win: (u32, u32, u32, u32), o: [f32; 3], sigma: f32) -> Option<Vector3<f32>> {
     let (u0, v0, nw, nh) = (win.0 as usize, win.1 as usize, win.2 as usize, win.3 as usize);
     let inv_s2 = 1.0 / (sigma * sigma);
     let cut = normal_cut2(sigma);
@@ -761,7 +762,8 @@ pub fn obstacle_normal(buf: &Buffers, win: (u32, u32, u32, u32), o: [f32; 3], si
     };
     for j in 0..nh {
         let ry = buf.ray_y[v0 + j];
-        let (dc, dt) = buf.window[j * nw..(j + 1) * nw].as_chunks::<LANES>();
+        let row = first + j * stride;
+        let (dc, dt) = buf.window[row..row + nw].as_chunks::<LANES>();
         let (xc, xt) = buf.ray_x[u0..u0 + nw].as_chunks::<LANES>();
         for (d, x) in dc.iter().zip(xc) {
             // Whole groups outside the kept set (no candidate, beyond the cut) cost nothing.
