@@ -530,18 +530,41 @@ impl Fded {
         }
         let (half, _) = window_halves(&self.params, self.cam.width, self.cam.height);
         let depth = &frame.depth.data[..];
-        for l in 0..self.buf.link_best.len() {
-            let mut b = self.buf.link_best[l];
-            if !b.is_some() {
+        let links = self.buf.link_best.len();
+        let k = self.classify;
+        let mut done = [false; MAX_LINKS];
+        for l in 0..links {
+            let pixel = self.buf.link_best[l].object_pixel;
+            if done[l] || !self.buf.link_best[l].is_some() {
                 continue;
             }
-            let win = window_around(b.object_pixel, half, self.cam.width, self.cam.height);
-            let rp = self.buf.cam_points[b.robot_point as usize];
-            let (r, k) = ([rp[0], rp[1], rp[2]], self.classify);
-            let keep = |d, rx, ry| k.candidate(d, rx, ry) && dist2(&r, rx, ry, d, k.gray_cap(d, rx, ry)) < b.dist2;
+            // The links whose object point is this pixel share its window: one classification
+            // keeps the pixels closer to any of their robot points than its pair; each link's
+            // own scan then only takes the pixels closer to its own.
+            let mut group = [(0usize, [0.0f32; 3], 0.0f32); MAX_LINKS];
+            let mut n = 0;
+            for (m, b) in self.buf.link_best.iter().enumerate().skip(l) {
+                if b.is_some() && b.object_pixel == pixel {
+                    let rp = self.buf.cam_points[b.robot_point as usize];
+                    group[n] = (m, [rp[0], rp[1], rp[2]], b.dist2);
+                    n += 1;
+                    done[m] = true;
+                }
+            }
+            let group = &group[..n];
+            let win = window_around(pixel, half, self.cam.width, self.cam.height);
+            let keep = |d, rx, ry| {
+                k.candidate(d, rx, ry) && {
+                    let cap = k.gray_cap(d, rx, ry);
+                    group.iter().any(|g| dist2(&g.1, rx, ry, d, cap) < g.2)
+                }
+            };
             classify_window(&self.meshes, depth, &self.removal, win, keep, None, &mut self.buf);
-            refine_obstacle(&self.buf, depth, &self.classify, win, &mut b);
-            self.buf.link_best[l] = b;
+            for g in group {
+                let mut b = self.buf.link_best[g.0];
+                refine_obstacle(&self.buf, depth, &self.classify, win, &mut b);
+                self.buf.link_best[g.0] = b;
+            }
         }
     }
 
