@@ -7,21 +7,23 @@
 //!    projects them (eq. 5.14), each labelled with its link;
 //! 2. **removes the robot** at the object lattice samples only: a sample whose real depth is
 //!    within δ = 5 cm of a link triangle covering it (grown by `robot_margin` px) is the robot;
+//!    triangles come in chunks culled as a whole by facing, pixel box and depth;
 //! 3. builds the **robot lattice** (per T_s × T_s tile and link, the robot point closest to the
 //!    tile centre) and 4. the **object lattice** (every S_x-th column of every S_y-th row that
 //!    is valid, not the table and not the robot);
 //! 5. finds, per link, the closest lattice pair under the depth-space distance (eq. 5.15–5.16)
 //!    with the gray area (eq. 5.17, ending at the table top); 6. **refines** it over every
 //!    robot point of the winning tile (and, our addition, over the real depth around the
-//!    winning object point, classified on demand);
+//!    winning object point, classifying only the pixels closer than the pair found);
 //! 7. fits the obstacle **normal** by weighted least squares over L = 1 % of the image's points
-//!    around the closest obstacle point, and the obstacle **velocity** from consecutive frames.
+//!    around the closest obstacle point (classifying only those with a weight), and the
+//!    obstacle **velocity** from consecutive frames.
 //!
 //! The output ([`FdedOutput`]) is per link — distance, robot point, obstacle point, normal,
 //! obstacle velocity, valid — plus the global minimum, all in the robot base frame. Buffers
 //! ([`Buffers`]) are flat, `bytemuck`-friendly and sized once; with `threads = 1` a frame
-//! allocates nothing after the first. The GPU path ([`gpu`]) shares stages 1–4 and 7 with the
-//! CPU (host side) and runs 5–6 as compute shaders. The [`baseline`] module holds the brute force and
+//! allocates nothing after the first. The GPU path ([`gpu`]) shares stages 1–4, the
+//! obstacle-side refinement and 7 with the CPU (host side) and runs 5–6 as compute shaders. The [`baseline`] module holds the brute force and
 //! Flacco et al.'s sphere method for the benchmark.
 //!
 //! ```no_run

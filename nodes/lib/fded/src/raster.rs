@@ -529,7 +529,7 @@ impl Samples<'_> {
 const BLOCK_PX: u32 = 16;
 
 /// The depth range `[min, max]` of the candidate samples in each block of about
-/// [`BLOCK_PX`]² px of a [`Samples`] grid: a chunk or triangle whose depth range (± δ) meets
+/// 16 × 16 px (`BLOCK_PX`) of a [`Samples`] grid: a chunk or triangle whose depth range (± δ) meets
 /// no block it covers cannot remove anything there and is skipped.
 #[derive(Debug, Clone)]
 pub struct DepthBlocks {
