@@ -25,7 +25,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use crate::raster::DepthBlocks;
+use crate::raster::{DepthBlocks, RobotMeshes, RobotView};
 
 /// Label of a pixel that no robot link covers (full-resolution virtual depth, tests and
 /// benchmark only).
@@ -112,21 +112,8 @@ pub struct Buffers {
     pub ray_x: Vec<f32>,
     /// `(v − c_y) / f_y` per row.
     pub ray_y: Vec<f32>,
-    /// Robot mesh vertices in the camera frame, `[x, y, z, link]`, this frame (triangle corners
-    /// for robot removal).
-    pub cam_vertices: Vec<RobotPoint>,
-    /// Projected mesh vertices `[u, v]`, px (NaN behind the near plane).
-    pub vertex_uv: Vec<[f32; 2]>,
-    /// Per triangle chunk ([`TriChunk`](crate::raster::TriChunk)): the pixel box
-    /// `[u0, v0, u1, v1]` of its vertices grown by the removal margin; empty (`u0 > u1`) when
-    /// the chunk is behind the camera or turns every face away from it.
-    pub chunk_box: Vec<[f32; 4]>,
-    /// Per triangle chunk: camera-frame depth range `[min, max]` of its vertices, m.
-    pub chunk_z: Vec<[f32; 2]>,
-    /// Per triangle chunk: its bounding sphere in the camera frame, `[x, y, z, radius]`, m.
-    pub chunk_sphere: Vec<[f32; 4]>,
-    /// The chunks not turned away from the camera this frame, ascending.
-    pub visible_chunks: Vec<u32>,
+    /// The robot's mesh as robot removal sees it this frame.
+    pub robot: RobotFrame,
     /// The robot point set in the camera frame, `[x, y, z, link]`, this frame.
     pub cam_points: Vec<RobotPoint>,
     /// Projection `[u, v]` of each robot point, px (NaN when outside the image or behind the
@@ -214,6 +201,42 @@ pub struct Buffers {
     pub robot_flags: Vec<u8>,
 }
 
+/// The robot's mesh in the camera frame this frame: what robot removal reads
+/// ([`RobotFrame::view`]).
+#[derive(Debug, Clone)]
+pub struct RobotFrame {
+    /// Robot mesh vertices in the camera frame, `[x, y, z, link]`, this frame (triangle corners
+    /// for robot removal).
+    pub cam_vertices: Vec<RobotPoint>,
+    /// Projected mesh vertices `[u, v]`, px (NaN behind the near plane).
+    pub vertex_uv: Vec<[f32; 2]>,
+    /// Per triangle chunk ([`TriChunk`](crate::raster::TriChunk)): the pixel box
+    /// `[u0, v0, u1, v1]` of its vertices grown by the removal margin; empty (`u0 > u1`) when
+    /// the chunk is behind the camera or turns every face away from it.
+    pub chunk_box: Vec<[f32; 4]>,
+    /// Per triangle chunk: camera-frame depth range `[min, max]` of its vertices, m.
+    pub chunk_z: Vec<[f32; 2]>,
+    /// Per triangle chunk: its bounding sphere in the camera frame, `[x, y, z, radius]`, m.
+    pub chunk_sphere: Vec<[f32; 4]>,
+    /// The chunks not turned away from the camera this frame, ascending.
+    pub visible_chunks: Vec<u32>,
+}
+
+impl RobotFrame {
+    /// The robot as [`mark_robot`](crate::raster::mark_robot) sees it, with its `meshes`.
+    pub fn view<'a>(&'a self, meshes: &'a RobotMeshes) -> RobotView<'a> {
+        RobotView {
+            meshes,
+            cam_vertices: &self.cam_vertices,
+            vertex_uv: &self.vertex_uv,
+            chunk_box: &self.chunk_box,
+            chunk_z: &self.chunk_z,
+            chunk_sphere: &self.chunk_sphere,
+            visible: &self.visible_chunks,
+        }
+    }
+}
+
 impl Buffers {
     /// Buffers for a `width × height` image, `links` robot links, `vertices` mesh vertices,
     /// `chunks` triangle chunks, `points` robot points and `threads` workers, for tile size
@@ -243,12 +266,14 @@ impl Buffers {
             height,
             ray_x: vec![0.0; width as usize],
             ray_y: vec![0.0; height as usize],
-            cam_vertices: vec![[0.0; 4]; vertices],
-            vertex_uv: vec![[0.0; 2]; vertices],
-            chunk_box: vec![[0.0; 4]; chunks],
-            chunk_z: vec![[0.0; 2]; chunks],
-            chunk_sphere: vec![[0.0; 4]; chunks],
-            visible_chunks: Vec::with_capacity(chunks),
+            robot: RobotFrame {
+                cam_vertices: vec![[0.0; 4]; vertices],
+                vertex_uv: vec![[0.0; 2]; vertices],
+                chunk_box: vec![[0.0; 4]; chunks],
+                chunk_z: vec![[0.0; 2]; chunks],
+                chunk_sphere: vec![[0.0; 4]; chunks],
+                visible_chunks: Vec::with_capacity(chunks),
+            },
             cam_points: vec![[0.0; 4]; points],
             point_uv: vec![[0.0; 2]; points],
             col_slot: (0..width).map(|u| (u / t) * links as u32).collect(),

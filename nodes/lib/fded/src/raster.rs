@@ -150,7 +150,7 @@ impl TriChunk {
 }
 
 /// Moves every mesh vertex into the camera frame (`cam_from_base` · link pose), tagging it
-/// with its link index, and projects it (eq. 5.14) into [`Buffers::vertex_uv`] (NaN behind
+/// with its link index, and projects it (eq. 5.14) into [`RobotFrame::vertex_uv`](crate::layout::RobotFrame::vertex_uv) (NaN behind
 /// the near plane `near`, m).
 pub fn transform_vertices(
     meshes: &RobotMeshes,
@@ -166,8 +166,8 @@ pub fn transform_vertices(
         &meshes.vertices,
         poses,
         cam_from_base,
-        &mut out.cam_vertices,
-        &mut out.vertex_uv,
+        &mut out.robot.cam_vertices,
+        &mut out.robot.vertex_uv,
         project,
     );
 }
@@ -212,9 +212,9 @@ pub fn render_virtual_depth(meshes: &RobotMeshes, cam: &Cam, near: f32, out: &mu
     let w = cam.width as i32;
     let h = cam.height as i32;
     for tri in &meshes.triangles {
-        let a = out.cam_vertices[tri[0] as usize];
-        let b = out.cam_vertices[tri[1] as usize];
-        let c = out.cam_vertices[tri[2] as usize];
+        let a = out.robot.cam_vertices[tri[0] as usize];
+        let b = out.robot.cam_vertices[tri[1] as usize];
+        let c = out.robot.cam_vertices[tri[2] as usize];
         if a[2] < near || b[2] < near || c[2] < near {
             continue;
         }
@@ -415,8 +415,8 @@ pub struct Removal {
     pub margin: f32,
 }
 
-/// Per chunk this frame ([`Buffers::chunk_box`], [`Buffers::chunk_z`],
-/// [`Buffers::chunk_sphere`]): its bounding sphere in the camera frame, the sphere's depth
+/// Per chunk this frame ([`RobotFrame::chunk_box`](crate::layout::RobotFrame::chunk_box), [`RobotFrame::chunk_z`](crate::layout::RobotFrame::chunk_z),
+/// [`RobotFrame::chunk_sphere`](crate::layout::RobotFrame::chunk_sphere)): its bounding sphere in the camera frame, the sphere's depth
 /// range and the pixel box of the sphere's projection grown by `margin` px (the whole image
 /// when the sphere reaches the near plane `near`); a chunk whose every face turns away from
 /// the camera (normal cone) gets an empty box (`u0 > u1`).
@@ -424,7 +424,7 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
     const CULLED: [f32; 4] = [f32::INFINITY, f32::INFINITY, f32::NEG_INFINITY, f32::NEG_INFINITY];
     let mut link = usize::MAX;
     let (mut r, mut p) = (Matrix3::<f32>::identity(), Vector3::<f32>::zeros());
-    out.visible_chunks.clear();
+    out.robot.visible_chunks.clear();
     for (c, ch) in meshes.chunks.iter().enumerate() {
         if ch.link != link {
             link = ch.link;
@@ -433,7 +433,7 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
             p = t.translation.vector.cast();
         }
         let w = r * Vector3::from(ch.centre) + p;
-        out.chunk_sphere[c] = [w.x, w.y, w.z, ch.radius];
+        out.robot.chunk_sphere[c] = [w.x, w.y, w.z, ch.radius];
         if ch.cone[0] > 0.0 {
             // Every face is back-facing when, for every point x of the sphere and normal n of
             // the cone, n·x ≥ 0 (x from the camera): |w|·cos(φ + θ) ≥ r, φ = ∠(axis, w).
@@ -443,16 +443,16 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
                 let cos_phi = a.dot(&w) / len;
                 let sin_phi = (1.0 - cos_phi * cos_phi).max(0.0).sqrt();
                 if cos_phi * ch.cone[0] - sin_phi * ch.cone[1] >= ch.radius / len + 1e-4 {
-                    out.chunk_box[c] = CULLED;
-                    out.chunk_z[c] = [f32::INFINITY, f32::NEG_INFINITY];
+                    out.robot.chunk_box[c] = CULLED;
+                    out.robot.chunk_z[c] = [f32::INFINITY, f32::NEG_INFINITY];
                     continue;
                 }
             }
         }
         let rad = ch.radius;
         let (zn, zf) = (w.z - rad, w.z + rad);
-        out.chunk_z[c] = [zn, zf];
-        out.chunk_box[c] = if zn > near {
+        out.robot.chunk_z[c] = [zn, zf];
+        out.robot.chunk_box[c] = if zn > near {
             // x / z over the sphere's bounding cube is extreme at its corners.
             let lo = |a: f32| a / if a >= 0.0 { zf } else { zn };
             let hi = |a: f32| a / if a >= 0.0 { zn } else { zf };
@@ -465,7 +465,7 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
         } else {
             [f32::NEG_INFINITY, f32::NEG_INFINITY, f32::INFINITY, f32::INFINITY]
         };
-        out.visible_chunks.push(c as u32);
+        out.robot.visible_chunks.push(c as u32);
     }
 }
 
@@ -475,17 +475,17 @@ pub fn view_chunks(meshes: &RobotMeshes, poses: &LinkPoses, cam_from_base: &Isom
 pub struct RobotView<'a> {
     /// Meshes and chunks.
     pub meshes: &'a RobotMeshes,
-    /// [`Buffers::cam_vertices`].
+    /// [`RobotFrame::cam_vertices`](crate::layout::RobotFrame::cam_vertices).
     pub cam_vertices: &'a [RobotPoint],
-    /// [`Buffers::vertex_uv`].
+    /// [`RobotFrame::vertex_uv`](crate::layout::RobotFrame::vertex_uv).
     pub vertex_uv: &'a [[f32; 2]],
-    /// [`Buffers::chunk_box`].
+    /// [`RobotFrame::chunk_box`](crate::layout::RobotFrame::chunk_box).
     pub chunk_box: &'a [[f32; 4]],
-    /// [`Buffers::chunk_z`].
+    /// [`RobotFrame::chunk_z`](crate::layout::RobotFrame::chunk_z).
     pub chunk_z: &'a [[f32; 2]],
-    /// [`Buffers::chunk_sphere`].
+    /// [`RobotFrame::chunk_sphere`](crate::layout::RobotFrame::chunk_sphere).
     pub chunk_sphere: &'a [[f32; 4]],
-    /// [`Buffers::visible_chunks`].
+    /// [`RobotFrame::visible_chunks`](crate::layout::RobotFrame::visible_chunks).
     pub visible: &'a [u32],
 }
 

@@ -164,12 +164,7 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         width,
         ray_x,
         ray_y,
-        cam_vertices,
-        vertex_uv,
-        chunk_box,
-        chunk_z,
-        chunk_sphere,
-        visible_chunks,
+        robot,
         lattice_nx,
         lattice_ny,
         lattice_depth,
@@ -206,15 +201,7 @@ pub fn remove_robot_at_lattice(meshes: &RobotMeshes, depth: &[f32], step: (u32, 
         stride: nx,
         zrange: zr,
     };
-    let view = RobotView {
-        meshes,
-        cam_vertices,
-        vertex_uv,
-        chunk_box,
-        chunk_z,
-        chunk_sphere,
-        visible: visible_chunks,
-    };
+    let view = robot.view(meshes);
     lattice_robot.fill(0);
     mark_robot(&view, &samples, depth_blocks, removal, None, lattice_robot);
 }
@@ -597,26 +584,13 @@ pub fn classify_full(meshes: &RobotMeshes, depth: &[f32], k: &Classify, removal:
         height,
         ray_x,
         ray_y,
-        cam_vertices,
-        vertex_uv,
-        chunk_box,
-        chunk_z,
-        chunk_sphere,
-        visible_chunks,
+        robot,
         depth_blocks,
         filtered,
         robot_flags,
         ..
     } = buf;
-    let view = RobotView {
-        meshes,
-        cam_vertices,
-        vertex_uv,
-        chunk_box,
-        chunk_z,
-        chunk_sphere,
-        visible: visible_chunks,
-    };
+    let view = robot.view(meshes);
     let w = *width as usize;
     let rect = (0, 0, *width, *height);
     let keep = |d, rx, ry| k.candidate(d, rx, ry);
@@ -641,26 +615,13 @@ pub fn classify_window(
         width,
         ray_x,
         ray_y,
-        cam_vertices,
-        vertex_uv,
-        chunk_box,
-        chunk_z,
-        chunk_sphere,
-        visible_chunks,
+        robot,
         depth_blocks,
         window,
         window_robot,
         ..
     } = buf;
-    let view = RobotView {
-        meshes,
-        cam_vertices,
-        vertex_uv,
-        chunk_box,
-        chunk_z,
-        chunk_sphere,
-        visible: visible_chunks,
-    };
+    let view = robot.view(meshes);
     let target = (&mut window[..], &mut window_robot[..], win.2 as usize);
     classify_into(&view, depth, *width as usize, (ray_x, ray_y), removal, win, keep, focus, depth_blocks, target);
 }

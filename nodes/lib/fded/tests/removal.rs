@@ -26,8 +26,8 @@ fn reference(f: &Fded, depth: &DepthImage, delta: f32, margin: f32) -> Vec<u8> {
     let (w, h) = (b.width as usize, b.height as usize);
     let mut flags = vec![0u8; w * h];
     for tri in &f.meshes().triangles {
-        let [a, bb, c] = tri.map(|i| b.cam_vertices[i as usize]);
-        let [pa, pb, pc] = tri.map(|i| b.vertex_uv[i as usize]);
+        let [a, bb, c] = tri.map(|i| b.robot.cam_vertices[i as usize]);
+        let [pa, pb, pc] = tri.map(|i| b.robot.vertex_uv[i as usize]);
         if pa[0].is_nan() || pb[0].is_nan() || pc[0].is_nan() {
             continue;
         }
