@@ -13,7 +13,8 @@ logs=out/logs
 echo "== starting the graph on ROS_DOMAIN_ID=$ROS_DOMAIN_ID (logs in $logs/)"
 launch_scripts/graph.sh --logs "$logs" &
 graph=$!
-trap 'kill -INT $graph 2>/dev/null || true; wait $graph 2>/dev/null || true' EXIT
+# TERM, not INT: a background job of a non-interactive shell ignores SIGINT.
+trap 'kill -TERM $graph 2>/dev/null || true; wait $graph 2>/dev/null || true' EXIT
 
 joints() { # prints joint positions in deg
   $cw topic echo /joint_states -n 1 --wait 10 |

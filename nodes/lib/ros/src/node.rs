@@ -1,6 +1,6 @@
 use std::marker::PhantomData;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context as _, Result, bail};
@@ -195,7 +195,7 @@ impl RosNode {
             .node
             .create_publisher::<T>(&t, Some(qos.clone()))
             .with_context(|| format!("cannot publish on {topic}"))?;
-        Ok(Publisher { inner, topic: topic.to_owned() })
+        Ok(Publisher { inner, topic: topic.to_owned(), dropped: AtomicU64::new(0) })
     }
 
     /// A subscription to `T` on `topic`.
@@ -247,6 +247,8 @@ pub(crate) fn ros_type_name(dds: &str) -> Option<String> {
 pub struct Publisher<T: RosMessage> {
     inner: ros2_client::Publisher<T>,
     topic: String,
+    /// Messages dropped because a reliable reader's queue was full.
+    dropped: AtomicU64,
 }
 
 impl<T: RosMessage> std::fmt::Debug for Publisher<T> {
@@ -256,11 +258,27 @@ impl<T: RosMessage> std::fmt::Debug for Publisher<T> {
 }
 
 impl<T: RosMessage> Publisher<T> {
-    /// Publishes one message.
+    /// Publishes one message. When a reliable reader does not acknowledge fast enough (a
+    /// stalled or vanished `ros2 topic echo`, say) the write would block: the message is
+    /// dropped, counted ([`dropped`](Self::dropped)) and logged at the 1st, 2nd, 4th, 8th, …
+    /// time — a slow reader never stops a node. Other failures are errors.
     pub fn publish(&self, msg: T) -> Result<()> {
-        self.inner
-            .publish(msg)
-            .map_err(|e| anyhow::anyhow!("publish on {} failed: {e:?}", self.topic))
+        match self.inner.publish(msg) {
+            Ok(()) => Ok(()),
+            Err(ros2_client::WriteError::WouldBlock { .. }) => {
+                let n = self.dropped.fetch_add(1, Ordering::Relaxed) + 1;
+                if n.is_power_of_two() {
+                    tracing::warn!("{}: a reliable reader is not keeping up; {n} message(s) dropped so far", self.topic);
+                }
+                Ok(())
+            }
+            Err(e) => Err(anyhow::anyhow!("publish on {} failed: {e}", self.topic)),
+        }
+    }
+
+    /// Messages dropped so far because a reliable reader's queue was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
     }
 
     /// Number of matched subscriptions (all participants on the domain).
