@@ -7,6 +7,7 @@
 #      JointState) is read by cowork_bag (schema check included) with the same count and values;
 #  (c) a copy of (b) cut at 60 % is refused with the byte offset and its readable prefix recovered;
 #  (d) the bag of (b) is shown by `cowork bag info` and replayed by `cowork bag play --rate 1`
+#      (once every topic has matched the recorder: `--wait-readers`)
 #      while `cowork bag record` records it; the recording, decoded by mcap_ros2, has the same
 #      messages per topic with equal contents and the original spacing in time.
 set -euo pipefail
@@ -39,10 +40,11 @@ echo "(d) cowork bag info / play of mcap_ros2's bag, recorded again by cowork ba
 # RustDDS reports normal discovery races as warnings / errors: only ours are shown.
 export ROS_DOMAIN_ID RUST_LOG=warn,rustdds=off,ros2_client=off
 "$target/release/cowork" bag info "$work/theirs.mcap"
-"$target/release/cowork" bag record -o "$work/replayed.mcap" --duration 9 --discovery-interval 0.2 > "$work/record.log" &
+"$target/release/cowork" bag record -o "$work/replayed.mcap" --duration 12 --discovery-interval 0.2 > "$work/record.log" &
 rec=$!
 sleep 1
-"$target/release/cowork" bag play "$work/theirs.mcap" --rate 1 --delay 3 --quiet
+# Every topic matched before the first message: volatile topics lose what is sent earlier.
+"$target/release/cowork" bag play "$work/theirs.mcap" --rate 1 --delay 1 --wait-readers 6 --quiet
 wait $rec || { echo "FAIL: cowork bag record"; cat "$work/record.log"; exit 1; }
 sed 's/^/  /' "$work/record.log"
 "$VENV/bin/python" tests/crosscheck/check_bag_replay.py "$work/theirs.jsonl" "$work/replayed.mcap"

@@ -11,7 +11,7 @@
 
 use anyhow::{Context as _, Result, bail};
 use ros2_client::dds::rustdds::{
-    self, QosPolicies, RepresentationIdentifier, Timestamp, bytes::Bytes, no_key,
+    self, QosPolicies, RTPSEntity, RepresentationIdentifier, Timestamp, bytes::Bytes, no_key,
 };
 use ros2_client::{MessageTypeName, Name, QosProfile};
 
@@ -281,6 +281,19 @@ impl RosNode {
             .and_then(|s| s.create_simple_datareader_no_key::<Payload, PassThrough>(&t, Some(dds_qos)))
             .map_err(|e| anyhow::anyhow!("cannot subscribe to {topic} ({type_name}): {e:?}"))?;
         Ok(RawSubscription { reader, topic: topic.to_owned(), type_name: type_name.to_owned() })
+    }
+
+    /// Readers of other participants discovered so far on `topic` (ROS name): once one is,
+    /// a writer of ours on the topic matches it.
+    pub fn remote_reader_count(&self, topic: &str) -> usize {
+        let dds_name = format!("rt{topic}");
+        let participant = self.context.domain_participant();
+        let own = participant.guid().prefix;
+        participant
+            .discovered_readers()
+            .into_iter()
+            .filter(|r| r.subscription_topic_data.topic_name() == &dds_name && r.reader_proxy.remote_reader_guid.prefix != own)
+            .count()
     }
 
     /// ROS types (`pkg/msg/Name`) of the writers discovered so far on `topic` (ROS name),

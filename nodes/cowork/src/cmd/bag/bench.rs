@@ -159,6 +159,7 @@ fn bench(args: &BenchArgs, path: &std::path::Path, n: u64) -> Result<()> {
             topics: Vec::new(),
             start: 0.0,
             clock_hz: 0.0,
+            wait_readers: None,
             delay: 2.0,
             no_check: max,
             quiet: true,

@@ -44,6 +44,10 @@ pub struct PlayArgs {
     /// subscribers discover and match them (DDS discovery is not instant).
     #[arg(long, default_value_t = 1.0)]
     pub delay: f64,
+    /// After the delay, also wait (at most this many seconds) until every replayed topic has
+    /// a matched subscriber — for a recorder that must not miss a topic's first messages.
+    #[arg(long, value_name = "SECONDS")]
+    pub wait_readers: Option<f64>,
     /// Publish every message without checking it (graph topic types, schema, payload, image
     /// size and encoding); by default bad messages are skipped with one warning per topic.
     #[arg(long)]
@@ -51,6 +55,23 @@ pub struct PlayArgs {
     /// No progress bar (it is also hidden when stderr is not a terminal).
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// Waits until every publisher's topic has a subscriber in another participant (discovered,
+/// so matched) or `limit` seconds pass; names the topics still without one.
+fn wait_for_readers(node: &RosNode, publishers: &BTreeMap<String, RawPublisher>, limit: f64) {
+    let until = std::time::Instant::now() + Duration::from_secs_f64(limit);
+    loop {
+        let missing: Vec<&str> = publishers.keys().filter(|t| node.remote_reader_count(t) == 0).map(String::as_str).collect();
+        if missing.is_empty() {
+            return;
+        }
+        if std::time::Instant::now() >= until || shutdown::requested() {
+            tracing::warn!("no subscriber matched after {limit} s on: {}", missing.join(", "));
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
 }
 
 /// Figures of one replay.
@@ -279,6 +300,11 @@ pub fn replay(reader: &BagReader, args: &PlayArgs, node: &mut RosNode) -> Result
     if !(args.delay.is_finite() && args.delay >= 0.0) {
         bail!("--delay {}: must be ≥ 0 s", args.delay);
     }
+    if let Some(w) = args.wait_readers
+        && !(w.is_finite() && w >= 0.0)
+    {
+        bail!("--wait-readers {w}: must be ≥ 0 s");
+    }
     let player = Player::new(reader, args.options())
         .with_context(|| format!("replaying {}", reader.path().display()))?;
     let info = reader.info();
@@ -305,6 +331,9 @@ pub fn replay(reader: &BagReader, args: &PlayArgs, node: &mut RosNode) -> Result
         None
     };
     std::thread::sleep(Duration::from_secs_f64(args.delay));
+    if let Some(limit) = args.wait_readers {
+        wait_for_readers(&node, &publishers, limit);
+    }
 
     let max = args.max;
     let bar = if args.quiet || !std::io::stderr().is_terminal() {
