@@ -332,7 +332,7 @@ pub fn replay(reader: &BagReader, args: &PlayArgs, node: &mut RosNode) -> Result
     };
     std::thread::sleep(Duration::from_secs_f64(args.delay));
     if let Some(limit) = args.wait_readers {
-        wait_for_readers(&node, &publishers, limit);
+        wait_for_readers(node, &publishers, limit);
     }
 
     let max = args.max;
