@@ -21,6 +21,15 @@ pub fn reliable_depth(depth: usize) -> QosProfile {
     }
 }
 
+/// [`reliable_depth`] for a bag replay, whose writes wait up to 100 ms for a slow reliable
+/// reader before failing: a replay would rather be late than drop a message.
+pub fn replay(depth: usize) -> QosProfile {
+    QosProfile {
+        reliability: Reliability::Reliable { when_full: WhenFull::DEFAULT },
+        ..reliable_depth(depth)
+    }
+}
+
 /// `/clock`: best effort, keep last 1 (as rclcpp's `ClockQoS`): a late tick is useless.
 pub fn clock() -> QosProfile {
     QosProfile {

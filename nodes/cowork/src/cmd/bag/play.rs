@@ -171,7 +171,7 @@ fn publish_qos(topic: &str) -> qos::QosProfile {
     match topic {
         CLOCK_TOPIC => qos::clock(),
         "/tf_static" => qos::latched(),
-        _ => qos::reliable_depth(100),
+        _ => qos::replay(100),
     }
 }
 
