@@ -1,6 +1,8 @@
 //! Robot removal against a naive reference: every front-facing link triangle, every pixel of
 //! its grown box, the point test written out here — no chunks, culling, depth blocks or
-//! spans. The full-resolution classification and the lattice samples must agree with it.
+//! spans. The full-resolution classification and the lattice samples must agree with it, and
+//! the normals (whose windows classify only the pixels in the fit's ball, together when they
+//! overlap) must equal a plain fit over the fully classified image.
 
 mod common;
 
@@ -140,4 +142,85 @@ fn chunked_removal_equals_the_naive_reference() {
         }
     }
     assert!(compared > 10_000, "too few samples compared: {compared}");
+}
+
+/// The normal fit reference: every pixel of the L-pixel window that the full-resolution
+/// classification keeps, weighted `exp(−‖p − o‖² / σ²)` up to the 10⁻⁶ cut-off, fitted in f64.
+fn reference_normal(f: &Fded, depth: &DepthImage, pixel: u32) -> Option<Vector3<f64>> {
+    let b = f.buffers();
+    let (w, h) = (b.width as i64, b.height as i64);
+    let l = (f.params().normal_fraction * (w * h) as f64).round().max(9.0);
+    let half = (l.sqrt() / 2.0).ceil() as i64;
+    let sigma = f.params().normal_sigma;
+    let (pu, pv) = (i64::from(pixel) % w, i64::from(pixel) / w);
+    let ray = |u: i64, v: i64, d: f64| Vector3::new(f64::from(b.ray_x[u as usize]) * d, f64::from(b.ray_y[v as usize]) * d, d);
+    let o = ray(pu, pv, f64::from(depth.data[pixel as usize]));
+    let (mut sw, mut sp, mut spp) = (0.0, Vector3::zeros(), nalgebra::Matrix3::zeros());
+    for v in (pv - half).max(0)..=(pv + half).min(h - 1) {
+        for u in (pu - half).max(0)..=(pu + half).min(w - 1) {
+            let d = f64::from(b.filtered[(v * w + u) as usize]);
+            if d <= 0.0 {
+                continue;
+            }
+            let q = ray(u, v, d) - o;
+            if q.norm_squared() > 13.8 * sigma * sigma {
+                continue;
+            }
+            let wt = (-q.norm_squared() / (sigma * sigma)).exp();
+            sw += wt;
+            sp += wt * q;
+            spp += wt * q * q.transpose();
+        }
+    }
+    let mean = sp / sw;
+    let eig = nalgebra::SymmetricEigen::new(spp / sw - mean * mean.transpose());
+    let k = (0..3).min_by(|&a, &c| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[c]))?;
+    Some(eig.eigenvectors.column(k).into_owned())
+}
+
+/// fDED's normals against [`reference_normal`] on one frame; returns how many distinct
+/// obstacle pixels it had.
+fn check_normals(k: &Intrinsics, frame: &Frame<'_>) -> usize {
+    let mut f = Fded::new(&model(), k, FdedParams::default()).unwrap();
+    let mut out = f.new_output();
+    f.process(frame, &mut out).unwrap();
+    let pixels: Vec<(usize, u32)> = f.buffers().link_best.iter().enumerate().filter(|(_, b)| b.is_some()).map(|(l, b)| (l, b.object_pixel)).collect();
+    let mut distinct: Vec<u32> = pixels.iter().map(|p| p.1).collect();
+    distinct.sort_unstable();
+    distinct.dedup();
+    f.classify_full(frame).unwrap();
+    let cam_from_base = frame.camera_pose.inverse();
+    for (l, pixel) in pixels {
+        let want = reference_normal(&f, frame.depth, pixel).expect("a plane");
+        let got = cam_from_base.rotation * out.links[l].normal;
+        // f32 sums against f64: 1 − |cos| ≈ 1e-8 here.
+        assert!(got.dot(&want).abs() > 1.0 - 1e-6, "link {l}: normal {got} vs reference {want}");
+    }
+    distinct.len()
+}
+
+#[test]
+fn normals_equal_a_fit_over_the_fully_classified_image() {
+    // Obstacle pixels apart: one fit per window.
+    let k = Intrinsics::kinect();
+    let cam = look_at([2.0, 0.0, 0.8], [0.3, 0.0, 0.5]);
+    let depth = scene(&k, &cam);
+    let frame = Frame { stamp: 0.0, depth: &depth, camera_pose: &cam, joints: Some(&TOLD) };
+    assert!(check_normals(&k, &frame) >= 2);
+    // The benchmark's static scene: seven links' obstacle pixels a few pixels apart, their
+    // windows classified together.
+    let bench = cowork_fded::bench::static_scene(&model(), 1, 1).unwrap();
+    assert!(check_normals(&bench.intrinsics, &bench.frame(0)) >= 5);
+    // A ball 4–5 cm from the end effector: robot pixels lie inside the fits' balls, so the
+    // windows' robot removal must reach them.
+    let m = model();
+    let mut poses = cowork_robot::LinkPoses::new();
+    m.forward_kinematics(&cowork_robot::JointVector::from_column_slice(&TOLD), &mut poses);
+    let ee = poses.get(m.link_count() - 1).translation.vector;
+    let mut d = DepthImage::new(k.width, k.height);
+    robot(&mut d, &m, &k, &cam, &TOLD);
+    sphere(&mut d, &k, &cam, Point3::from(ee + Vector3::new(0.0, 0.15, 0.0)), 0.06);
+    plane(&mut d, &k, &cam, Vector3::z(), 0.0);
+    let frame = Frame { stamp: 0.0, depth: &d, camera_pose: &cam, joints: Some(&TOLD) };
+    check_normals(&k, &frame);
 }
