@@ -467,7 +467,8 @@ impl Fded {
                 };
                 lattice_minimum(robot, info, 0, obj, &opix[r], best);
             };
-            run_parts(self.pool.as_ref(), &mut buf.partial_best, &work);
+            let pairs = buf.robot_lattice.len() * n;
+            run_parts(self.pool.as_ref().filter(|_| pairs >= PARALLEL_MIN_PAIRS), &mut buf.partial_best, &work);
         }
         merge(&buf.partial_best, &mut buf.link_best);
     }
@@ -509,7 +510,8 @@ impl Fded {
                     }
                 }
             };
-            run_parts(self.pool.as_ref(), &mut partial, &work);
+            let points: usize = link_best.iter().filter(|b| b.is_some()).map(|b| shared.robot_lattice_info[b.lattice as usize][3] as usize).sum();
+            run_parts(self.pool.as_ref().filter(|_| points * n >= PARALLEL_MIN_PAIRS), &mut partial, &work);
         }
         merge(&partial, &mut buf.link_best);
         buf.partial_best = partial;
@@ -749,6 +751,10 @@ pub(crate) fn cam_of(k: &Intrinsics) -> Result<Cam> {
         cy: k.cy as f32,
     })
 }
+
+/// Stages 5 and 6 go to the worker threads only from this many robot × object pairs: below it
+/// (the thesis set on the static scene has ≈ 4 000) handing them over costs more than it saves.
+const PARALLEL_MIN_PAIRS: usize = 100_000;
 
 /// Range of items `0..n` that part `part` of `parts` handles.
 pub(crate) fn part_range(n: usize, parts: usize, part: usize) -> std::ops::Range<usize> {

@@ -175,9 +175,11 @@ fn threads_give_the_same_answer() {
     let depth = scene(&k, &cam);
     let one = run(FdedParams::default(), &depth, 0.0).1;
     let two = run(FdedParams { threads: 2, ..FdedParams::default() }, &depth, 0.0).1;
-    let three = run(FdedParams { threads: 3, step_x: 4, step_y: 4, ..FdedParams::default() }, &depth, 0.0).1;
-    let one4 = run(FdedParams { step_x: 4, step_y: 4, ..FdedParams::default() }, &depth, 0.0).1;
-    for (a, b) in one.links.iter().zip(&two.links).chain(one4.links.iter().zip(&three.links)) {
+    // S = 1: enough robot × object pairs for the workers to take stages 5 and 6.
+    let three = run(FdedParams { threads: 3, step_x: 1, step_y: 1, ..FdedParams::default() }, &depth, 0.0).1;
+    let one1 = run(FdedParams { step_x: 1, step_y: 1, ..FdedParams::default() }, &depth, 0.0).1;
+    assert!(three.counts.robot_lattice * three.counts.object_lattice >= 100_000, "{:?}", three.counts);
+    for (a, b) in one.links.iter().zip(&two.links).chain(one1.links.iter().zip(&three.links)) {
         assert_eq!(a.valid, b.valid);
         if a.valid {
             assert!((a.distance - b.distance).abs() < 1e-9);
