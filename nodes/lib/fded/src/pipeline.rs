@@ -84,6 +84,16 @@ pub struct StageTimes {
 }
 
 impl StageTimes {
+    /// Fills the back half of a frame from the instants `[minimum starts, refinement starts,
+    /// output starts, end]` (stages 1–4 are timed by `front`).
+    pub(crate) fn set_back(&mut self, t: [Instant; 4]) {
+        let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
+        self.minimum_us = us(t[0], t[1]);
+        self.refine_us = us(t[1], t[2]);
+        self.output_us = us(t[2], t[3]);
+        self.total_us += us(t[0], t[3]);
+    }
+
     /// Distance part only (lattices, minimum, refinement): what the thesis's tables time.
     pub fn distance_us(&self) -> f64 {
         self.lattices_us + self.minimum_us + self.refine_us
@@ -410,12 +420,7 @@ impl Fded {
         self.refine_obstacles(frame);
         let t4 = Instant::now();
         self.finish(frame, out);
-        let t5 = Instant::now();
-        let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
-        times.minimum_us = us(t2, t3);
-        times.refine_us = us(t3, t4);
-        times.output_us = us(t4, t5);
-        times.total_us += us(t2, t5);
+        times.set_back([t2, t3, t4, Instant::now()]);
         out.times = times;
         Ok(())
     }

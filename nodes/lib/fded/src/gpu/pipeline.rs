@@ -272,12 +272,7 @@ impl GpuFded {
         self.host.refine_obstacles(frame);
         let t3 = Instant::now();
         self.host.finish(frame, out);
-        let t4 = Instant::now();
-        let us = |a: Instant, b: Instant| (b - a).as_secs_f64() * 1e6;
-        times.minimum_us = us(t1, t2);
-        times.refine_us = us(t2, t3);
-        times.output_us = us(t3, t4);
-        times.total_us += us(t1, t4);
+        times.set_back([t1, t2, t3, Instant::now()]);
         out.times = times;
         Ok(())
     }
