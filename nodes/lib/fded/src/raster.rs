@@ -219,14 +219,7 @@ pub fn render_virtual_depth(meshes: &RobotMeshes, cam: &Cam, near: f32, out: &mu
             continue;
         }
         // Back faces of a closed, outward-wound mesh are hidden by its front faces.
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let n = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        if n[0] * a[0] + n[1] * a[1] + n[2] * a[2] >= 0.0 {
+        if !faces_camera(&a, &b, &c) {
             continue;
         }
         let label = a[3] as u8;
@@ -274,6 +267,16 @@ pub fn render_virtual_depth(meshes: &RobotMeshes, cam: &Cam, near: f32, out: &mu
         }
     }
     out.robot_box = bbox;
+}
+
+/// `true` when triangle (a, b, c) (camera frame, counter-clockwise seen from outside) turns
+/// its outer side towards the camera at the origin; degenerate triangles do not.
+#[inline]
+fn faces_camera(a: &RobotPoint, b: &RobotPoint, c: &RobotPoint) -> bool {
+    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+    n[0] * a[0] + n[1] * a[1] + n[2] * a[2] < 0.0
 }
 
 /// Twice the signed area of (a, b, p): > 0 when p is left of a→b in image coordinates.
@@ -654,14 +657,7 @@ impl TriTest {
         );
         // Back faces of the closed, outward-wound link meshes lie behind their front faces,
         // which cover the same pixels.
-        let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-        let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-        let nrm = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
-        if nrm[0] * a[0] + nrm[1] * a[1] + nrm[2] * a[2] >= 0.0 {
+        if !faces_camera(&a, &b, &c) {
             return None;
         }
         let [pa, pb, pc] = self.p;
