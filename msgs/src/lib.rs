@@ -261,6 +261,8 @@ macro_rules! __for_all_message_types {
             msg::ActionCommand,
             msg::WmNode,
             msg::WorkingMemory,
+            msg::WorldObject,
+            msg::WorldState,
         }
     };
 }

@@ -437,3 +437,44 @@ pub struct WorkingMemory {
 }
 
 ros_message!(WorkingMemory = "cowork_msgs" / "WorkingMemory" in "msg", deps [Header, WmNode]);
+
+/// One object of the simulated world, ground truth from `lwr_sim`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorldObject {
+    /// Object name, as in the scene file.
+    pub name: String,
+    /// Pose of the shape centre, base frame.
+    pub pose: Pose,
+    /// Tool point to object surface distance (m); 0 inside.
+    pub tool_distance: f64,
+    /// Angle between the object's z axis and the base z axis (rad).
+    pub tilt: f64,
+    /// Held by the gripper.
+    pub held: bool,
+}
+
+ros_message!(WorldObject = "cowork_msgs" / "WorldObject" in "msg", deps [Pose]);
+
+/// State of the simulated world on `/lwr/world`: grasp state, tool pose, every object.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorldState {
+    /// Simulated time; base frame.
+    pub header: Header,
+    /// `GRIPPER_OPEN` or `GRIPPER_CLOSED`.
+    pub gripper_state: u8,
+    /// Held object; empty when nothing is held.
+    pub held_object: String,
+    /// Tool (tip link) pose, base frame.
+    pub tool_pose: Pose,
+    /// Every scene object, in scene-file order.
+    pub objects: Vec<WorldObject>,
+}
+
+ros_message!(
+    WorldState = "cowork_msgs" / "WorldState" in "msg",
+    deps [Header, Pose, WorldObject],
+    consts {
+        GRIPPER_OPEN: u8 = 0,
+        GRIPPER_CLOSED: u8 = 1,
+    }
+);

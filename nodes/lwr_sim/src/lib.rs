@@ -10,6 +10,9 @@
 //! `/human/skeleton` (cowork_msgs/Skeleton, base frame): each person is drawn in the depth image
 //! as a capsule body on the floor (see [`depth::People`]).
 //! Outputs: `/clock`, `/joint_states`, `/tf` (links and objects), `/tf_static` (camera),
+//! `/lwr/world` (cowork_msgs/WorldState: gripper, held object, tool pose, every object's pose,
+//! tool distance and tilt, at `publish.world_rate_hz`; what the robot manager and the
+//! experiments' success checks read),
 //! `/camera/depth/image_raw` (sensor_msgs/Image, `32FC1` m or `16UC1` mm) and
 //! `/camera/depth/camera_info` at the scene camera's `rate_hz` of simulated time (sensor-data
 //! QoS), rendered by a worker thread from the newest state (see [`depth`]).
@@ -21,18 +24,21 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Result, bail};
 use cowork_msgs::builtin_interfaces::Time;
-use cowork_msgs::geometry_msgs::{Quaternion, Transform, TransformStamped, Vector3, WrenchStamped};
-use cowork_msgs::msg::Skeleton;
+use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion, Transform, TransformStamped, Vector3, WrenchStamped};
+use cowork_msgs::msg::{Skeleton, WorldObject, WorldState};
 use cowork_msgs::rosgraph_msgs::Clock;
 use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use cowork_msgs::std_msgs::{Float64MultiArray, Header, String as RosString};
 use cowork_msgs::tf2_msgs::TFMessage;
 use cowork_ros::{RosNode, qos};
-use cowork_sim::{SimParams, Simulator, Wrench};
+use cowork_sim::{GripperState, SimParams, Simulator, Wrench};
 use nalgebra::Isometry3;
 use serde::{Deserialize, Serialize};
 
 use crate::depth::{DepthCamera, DepthConfig, FrameClock, Mailbox, People};
+
+/// Topic of [`LwrSim::world`].
+pub const TOPIC_WORLD: &str = "/lwr/world";
 
 /// Publication rates of the node, Hz of simulated time.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -44,11 +50,13 @@ pub struct PublishRates {
     pub joint_state_rate_hz: f64,
     /// `/tf` (links and objects).
     pub tf_rate_hz: f64,
+    /// `/lwr/world` (grasp state and object poses).
+    pub world_rate_hz: f64,
 }
 
 impl Default for PublishRates {
     fn default() -> Self {
-        Self { clock_rate_hz: 1000.0, joint_state_rate_hz: 1000.0, tf_rate_hz: 50.0 }
+        Self { clock_rate_hz: 1000.0, joint_state_rate_hz: 1000.0, tf_rate_hz: 50.0, world_rate_hz: 100.0 }
     }
 }
 
@@ -73,6 +81,7 @@ impl LwrSimConfig {
             ("publish.clock_rate_hz", self.publish.clock_rate_hz),
             ("publish.joint_state_rate_hz", self.publish.joint_state_rate_hz),
             ("publish.tf_rate_hz", self.publish.tf_rate_hz),
+            ("publish.world_rate_hz", self.publish.world_rate_hz),
         ] {
             if !(v.is_finite() && v > 0.0 && v <= max) {
                 bail!("{place}: `{field}` = {v} must be in (0, {max}] Hz (one message per step at most)");
@@ -111,6 +120,8 @@ pub struct Due {
     pub clock: bool,
     pub joint_states: bool,
     pub tf: bool,
+    /// `/lwr/world`.
+    pub world: bool,
     /// A depth camera frame (at the scene camera's rate).
     pub depth: bool,
 }
@@ -122,6 +133,7 @@ pub struct LwrSim {
     every_clock: u64,
     every_joint_states: u64,
     every_tf: u64,
+    every_world: u64,
     steps: u64,
     base_frame: String,
     joint_state: JointState,
@@ -145,6 +157,7 @@ impl LwrSim {
             every_clock: every(config.publish.clock_rate_hz),
             every_joint_states: every(config.publish.joint_state_rate_hz),
             every_tf: every(config.publish.tf_rate_hz),
+            every_world: every(config.publish.world_rate_hz),
             steps: 0,
             base_frame,
             joint_state: JointState {
@@ -242,6 +255,7 @@ impl LwrSim {
             clock: self.steps % self.every_clock == 0,
             joint_states: self.steps % self.every_joint_states == 0,
             tf: self.steps % self.every_tf == 0,
+            world: self.steps % self.every_world == 0,
             depth: self.camera_clock.due(self.sim.time_ns()),
         }
     }
@@ -280,6 +294,39 @@ impl LwrSim {
         TFMessage { transforms: links.chain(objects).collect() }
     }
 
+    /// `/lwr/world`: gripper state, held object, tool pose and every object (pose, distance
+    /// from the tool point to its surface, tilt of its z axis from the vertical).
+    pub fn world(&self) -> WorldState {
+        let tool = self.sim.tool_pose();
+        let tool_point = nalgebra::Point3::from(tool.translation.vector);
+        let held = self.sim.held_object();
+        let objects = self
+            .sim
+            .objects()
+            .iter()
+            .map(|o| {
+                let z = o.pose.rotation * nalgebra::Vector3::z();
+                WorldObject {
+                    name: o.name.clone(),
+                    pose: pose(&o.pose),
+                    tool_distance: o.distance_to(&tool_point),
+                    tilt: z.z.clamp(-1.0, 1.0).acos(),
+                    held: held == Some(o.name.as_str()),
+                }
+            })
+            .collect();
+        WorldState {
+            header: Header { stamp: self.now(), frame_id: self.base_frame.clone() },
+            gripper_state: match self.sim.gripper() {
+                GripperState::Open => WorldState::GRIPPER_OPEN,
+                GripperState::Closed { .. } => WorldState::GRIPPER_CLOSED,
+            },
+            held_object: held.unwrap_or_default().to_owned(),
+            tool_pose: pose(&tool),
+            objects,
+        }
+    }
+
     /// `/tf_static`: the camera's optical frame.
     pub fn tf_static(&self) -> TFMessage {
         let camera = &self.sim.scene().camera;
@@ -291,6 +338,15 @@ impl LwrSim {
                 &camera.pose.isometry(),
             )],
         }
+    }
+}
+
+fn pose(p: &Isometry3<f64>) -> Pose {
+    let t = &p.translation.vector;
+    let q = p.rotation.quaternion();
+    Pose {
+        position: Point { x: t.x, y: t.y, z: t.z },
+        orientation: Quaternion { x: q.i, y: q.j, z: q.k, w: q.w },
     }
 }
 
@@ -342,6 +398,7 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
     let joint_states = node.publisher::<JointState>("/joint_states", &qos::reliable())?;
     let tf = node.publisher::<TFMessage>("/tf", &qos::reliable_depth(100))?;
     let tf_static = node.publisher::<TFMessage>("/tf_static", &qos::latched())?;
+    let world = node.publisher::<WorldState>(TOPIC_WORLD, &qos::reliable_depth(100))?;
     tf_static.publish(lwr.tf_static())?;
     let camera = if lwr.config_depth.enabled {
         let image = node.publisher::<Image>("/camera/depth/image_raw", &qos::sensor_data())?;
@@ -392,6 +449,9 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         }
         if due.tf {
             tf.publish(lwr.tf())?;
+        }
+        if due.world {
+            world.publish(lwr.world())?;
         }
         if due.depth {
             if let Some((mailbox, _)) = &camera {

@@ -106,3 +106,32 @@ fn parameter_errors_name_the_file_and_key() {
     let e = cowork_ros::params::from_str::<LwrSimConfig>(text, "lwr_sim", "bad.yaml").unwrap_err().to_string();
     assert!(e.contains("bad.yaml") && e.contains("tf_hz"), "{e}");
 }
+
+#[test]
+fn world_reports_what_the_simulator_holds_and_where_objects_are() {
+    let mut n = node();
+    let mut world = 0;
+    for _ in 0..1000 {
+        world += n.step().world as u32;
+    }
+    assert_eq!(world, 100, "/lwr/world at 100 Hz of simulated time");
+    let w = n.world();
+    assert_eq!(w.header.frame_id, "lwr_base_link");
+    assert_eq!((w.header.stamp.sec, w.header.stamp.nanosec), (1, 0));
+    assert_eq!(w.gripper_state, cowork_msgs::msg::WorldState::GRIPPER_OPEN);
+    assert!(w.held_object.is_empty());
+    let names: Vec<&str> = w.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["bottle", "cup", "coffee", "sugar", "spoon", "tea"]);
+    let bottle = &w.objects[0];
+    assert!((bottle.pose.position.y - 0.35).abs() < 1e-12 && bottle.tilt.abs() < 1e-9 && !bottle.held);
+    // The tool point's distance to the bottle's surface, as the simulator measures it.
+    let sim = n.simulator();
+    let tool = nalgebra::Point3::from(sim.tool_pose().translation.vector);
+    assert!((bottle.tool_distance - sim.objects()[0].distance_to(&tool)).abs() < 1e-12);
+    assert!((w.tool_pose.position.x - tool.x).abs() < 1e-12);
+    // Closing the gripper far from everything holds nothing: the state says closed, no object.
+    n.on_gripper_command(&RosString { data: "close".into() });
+    let w = n.world();
+    assert_eq!(w.gripper_state, cowork_msgs::msg::WorldState::GRIPPER_CLOSED);
+    assert!(w.held_object.is_empty() && w.objects.iter().all(|o| !o.held));
+}
