@@ -258,6 +258,10 @@ pub struct ActionEvent {
     pub command_id: u32,
     /// The action is accomplished (`a.done`).
     pub done: bool,
+    /// The action could not be accomplished (`done` is then false).
+    pub failed: bool,
+    /// Why it failed; empty otherwise.
+    pub reason: String,
 }
 
 ros_message!(

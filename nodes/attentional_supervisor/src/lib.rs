@@ -9,7 +9,8 @@
 //! * `/object_stream` (cowork_msgs/ObjectStream): one `objects` event per message
 //!   (name, end-effector distance in m, visibility);
 //! * `/robot_stream` (cowork_msgs/RobotStream): per message, in this order, the action events
-//!   (`done` → `action_done`; "started" events carry nothing new), the teaching segments
+//!   (`done` → `action_done`, `failed` → `action_failed` with the reason; "started" events
+//!   carry nothing new), the teaching segments
 //!   (→ `segment`), then the gripper state *when it changed* (→ `gripper`): the events and
 //!   segments happened before the state the message reports;
 //! * `/speech_command` (std_msgs/String): `speech`.
@@ -180,8 +181,12 @@ pub struct RobotStreamDecoder {
 impl RobotStreamDecoder {
     /// Appends the events of `msg` to `events` and what was wrong with it to `problems`.
     pub fn decode(&mut self, msg: &RobotStream, events: &mut Vec<Event>, problems: &mut Vec<String>) {
-        for e in msg.events.iter().filter(|e| e.done) {
-            events.push(Event::ActionDone { arm: None, label: e.label.clone() });
+        for e in &msg.events {
+            if e.failed {
+                events.push(Event::ActionFailed { arm: None, label: e.label.clone(), reason: e.reason.clone() });
+            } else if e.done {
+                events.push(Event::ActionDone { arm: None, label: e.label.clone() });
+            }
         }
         for s in &msg.segments {
             let Some(kind) = action_kind(s.kind) else {

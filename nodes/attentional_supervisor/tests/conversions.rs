@@ -47,7 +47,7 @@ fn robot(gripper_closed_on: Option<&str>, done: &[&str], segments: &[(&str, u8)]
             RobotStream::GRIPPER_OPEN
         },
         held_object: gripper_closed_on.unwrap_or("").into(),
-        events: done.iter().map(|l| ActionEvent { label: (*l).into(), kind: 0, command_id: 0, done: true }).collect(),
+        events: done.iter().map(|l| ActionEvent { label: (*l).into(), kind: 0, command_id: 0, done: true, ..Default::default() }).collect(),
         segments: segments
             .iter()
             .map(|(l, k)| ActionSegment { label: (*l).into(), kind: *k, ..Default::default() })
@@ -102,7 +102,7 @@ fn robot_stream_becomes_edge_events_in_order() {
 
     // A started event carries nothing; done events, then segments, then the new gripper state.
     let mut msg = robot(Some("water"), &["close3(water)"], &[("close3", ActionSegment::KIND_GRIPPER)]);
-    msg.events.insert(0, ActionEvent { label: "foa4(cup)".into(), kind: 1, command_id: 4, done: false });
+    msg.events.insert(0, ActionEvent { label: "foa4(cup)".into(), kind: 1, command_id: 4, done: false, ..Default::default() });
     msg.segments[0].object_name = "water".into();
     dec.decode(&msg, &mut ev, &mut problems);
     assert_eq!(
@@ -523,4 +523,24 @@ fn stop_aborts_with_the_command_id_and_repeat_resumes() {
     assert!(!out[0].stop);
     assert_eq!(out[0].label, "foa1(water)");
     assert!(out[0].id > first.id, "a resumed action is a new command");
+}
+
+#[test]
+fn a_failed_action_event_becomes_action_failed_with_its_reason() {
+    let mut msg = robot(None, &[], &[]);
+    msg.events.push(ActionEvent {
+        label: "foa9(water)".into(),
+        kind: 1,
+        command_id: 3,
+        failed: true,
+        reason: "no primitive `foa9`".into(),
+        ..Default::default()
+    });
+    let (mut events, mut problems) = (Vec::new(), Vec::new());
+    RobotStreamDecoder::default().decode(&msg, &mut events, &mut problems);
+    assert!(problems.is_empty(), "{problems:?}");
+    assert_eq!(
+        events[0],
+        Event::ActionFailed { arm: None, label: "foa9(water)".into(), reason: "no primitive `foa9`".into() }
+    );
 }

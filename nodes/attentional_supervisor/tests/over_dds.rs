@@ -157,7 +157,7 @@ impl Client {
             gripper_state: if self.held.is_some() { RobotStream::GRIPPER_CLOSED } else { RobotStream::GRIPPER_OPEN },
             held_object: self.held.clone().unwrap_or_default(),
             events: done
-                .map(|l| ActionEvent { label: l.into(), kind: 0, command_id: 0, done: true })
+                .map(|l| ActionEvent { label: l.into(), kind: 0, command_id: 0, done: true, ..Default::default() })
                 .into_iter()
                 .collect(),
             segments: segments
