@@ -2,11 +2,15 @@
 //! Algorithm 1) as [`cowork_ds::LearnedField`]s, decoded from `MotionCommand.parameters_json`.
 //!
 //! `parameters_json` holds either a model as `cowork_motion::Model::save` writes it (an object
-//! with `"kind": "dmp" | "gmr" | "cgmr"`), or `{"model_file": "PATH"}` naming such a file. The
-//! model must be 3-D (TCP position, m, base frame). Decoding allocates (ROS side); the fields'
-//! `reset` and `velocity` do not (real-time side).
+//! with `"kind": "dmp" | "gmr" | "cgmr"`), or `{"model_file": "NAME"}` naming such a file inside
+//! the configured primitive directory ([`ModelFiles`]). The model must be 3-D (TCP position, m,
+//! base frame) and is checked completely when it is read (`cowork_motion::Model::validate`:
+//! array lengths, finiteness, gains), so nothing a peer sends can make the real-time step index
+//! out of bounds. Decoding allocates (ROS side); the fields' `reset` and `velocity` do not
+//! (real-time side).
 
-use std::path::Path;
+use std::io::Read as _;
+use std::path::{Component, Path, PathBuf};
 
 use cowork_ds::LearnedField;
 use cowork_motion::dmp::Dmp;
@@ -45,8 +49,63 @@ pub struct DmpField {
     s: f64,
 }
 
-/// Decodes `parameters_json` for a command of kind `kind` ("dmp", "gmr" or "cgmr").
-pub fn decode(kind: &str, parameters_json: &str) -> Result<Learned, String> {
+/// Where `{"model_file": NAME}` may read from: only regular files under `dir`, named by a
+/// relative path without `..`, of at most `max_bytes`. A peer can therefore neither make the
+/// node open a device, FIFO or file elsewhere, nor learn from the reason whether such a file
+/// exists.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModelFiles {
+    /// The primitive directory; `None` refuses every `model_file`.
+    pub dir: Option<PathBuf>,
+    /// Largest model file read (bytes).
+    pub max_bytes: u64,
+}
+
+impl ModelFiles {
+    /// Refuses every `model_file`.
+    pub const NONE: Self = Self { dir: None, max_bytes: 0 };
+
+    /// Reads `name` under the directory, or says why not without telling what is on disk
+    /// outside it.
+    fn read(&self, name: &str) -> Result<String, String> {
+        let refused = || {
+            format!(
+                "model_file {name:?}: no readable model file of at most {} bytes by that name in the primitive directory",
+                self.max_bytes
+            )
+        };
+        let Some(dir) = &self.dir else {
+            return Err(format!("model_file {name:?}: model files are disabled (no primitive_dir configured)"));
+        };
+        let rel = Path::new(name);
+        if name.is_empty() || !rel.components().all(|c| matches!(c, Component::Normal(_))) {
+            return Err(format!(
+                "model_file {name:?}: must be a relative path inside the primitive directory (no `..`, no absolute path)"
+            ));
+        }
+        let path = dir.join(rel);
+        // A symbolic link could lead out of the directory: follow it and check where it lands.
+        let (Ok(real), Ok(real_dir)) = (path.canonicalize(), dir.canonicalize()) else { return Err(refused()) };
+        if !real.starts_with(&real_dir) {
+            return Err(refused());
+        }
+        match std::fs::metadata(&real) {
+            Ok(m) if m.is_file() && m.len() <= self.max_bytes => {}
+            _ => return Err(refused()),
+        }
+        let mut text = String::new();
+        let file = std::fs::File::open(&real).map_err(|_| refused())?;
+        file.take(self.max_bytes + 1).read_to_string(&mut text).map_err(|_| refused())?;
+        if text.len() as u64 > self.max_bytes {
+            return Err(refused());
+        }
+        Ok(text)
+    }
+}
+
+/// Decodes `parameters_json` for a command of kind `kind` ("dmp", "gmr" or "cgmr"); a
+/// `model_file` is read only as `files` allows.
+pub fn decode(kind: &str, parameters_json: &str, files: &ModelFiles) -> Result<Learned, String> {
     if parameters_json.trim().is_empty() {
         return Err(format!(
             "{kind} command without a model: parameters_json must hold a cowork_motion model or {{\"model_file\": PATH}}"
@@ -54,9 +113,10 @@ pub fn decode(kind: &str, parameters_json: &str) -> Result<Learned, String> {
     }
     let value: serde_json::Value =
         serde_json::from_str(parameters_json).map_err(|e| format!("parameters_json is not JSON: {e}"))?;
-    let model = if let Some(path) = value.get("model_file") {
-        let path = path.as_str().ok_or("parameters_json: model_file must be a string")?;
-        Model::load(Path::new(path)).map_err(|e| format!("model_file {path}: {e}"))?
+    let model = if let Some(name) = value.get("model_file") {
+        let name = name.as_str().ok_or("parameters_json: model_file must be a string")?;
+        let text = files.read(name)?;
+        serde_json::from_str::<Model>(&text).map_err(|e| format!("model_file {name:?} is not a valid model: {e}"))?
     } else {
         serde_json::from_value::<Model>(value).map_err(|e| format!("parameters_json is not a {kind} model: {e}"))?
     };

@@ -17,7 +17,7 @@
 pub mod learned;
 
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
-use std::sync::mpsc::{Receiver, SyncSender, TryRecvError};
+use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
@@ -52,6 +52,11 @@ pub struct Params {
     pub status_rate_hz: f64,
     /// Gain k (1/s) of a `KIND_LINEAR` command without parameters.
     pub default_linear_gain: f64,
+    /// Directory `{"model_file": NAME}` commands may read models from (relative to the working
+    /// directory); empty refuses every `model_file`.
+    pub primitive_dir: String,
+    /// Largest model file read (bytes).
+    pub max_model_file_bytes: u64,
     /// The controller (period, watchdog bound, speeds, modulation, IK).
     pub controller: ControllerConfig,
 }
@@ -62,6 +67,8 @@ impl Default for Params {
             use_sim_time: false,
             status_rate_hz: 50.0,
             default_linear_gain: 2.0,
+            primitive_dir: "out/primitives".into(),
+            max_model_file_bytes: 4 << 20,
             controller: ControllerConfig::default(),
         }
     }
@@ -80,6 +87,9 @@ impl Params {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{place}: `{field}` = {v} must be a positive number");
             }
+        }
+        if !(1..=(256 << 20)).contains(&self.max_model_file_bytes) {
+            bail!("{place}: `max_model_file_bytes` = {} must be in 1..=268435456", self.max_model_file_bytes);
         }
         Ok(())
     }
@@ -207,7 +217,8 @@ pub fn rt_step(
         };
     };
     let age = t - q_stamp;
-    if !(age <= stale_after) {
+    // A stamp from the future (clock stepped back, looped /clock) is as unusable as an old one.
+    if !(age <= stale_after && age >= -ctl.config().future_tolerance_s) {
         let f = Fault::Stale { stream: Stream::JointStates, age_s: age, bound_s: stale_after };
         ctl.hold(&q, out, HoldReason::Fault(f));
     } else if let Some(reason) = inputs.distances_rejected {
@@ -276,7 +287,9 @@ pub fn rt_loop(
                 }
             }
             Clock::Sim(_) => {
-                let due = clock.now().is_some_and(|t| t - last_t >= period * (1.0 - 1e-6));
+                // Time going back (lwr_sim restarted, a bag looped) is stepped at once: the
+                // step then finds every input stamped in its future and holds the robot.
+                let due = clock.now().is_some_and(|t| t < last_t || t - last_t >= period * (1.0 - 1e-6));
                 if !due {
                     std::thread::sleep(Duration::from_micros(100));
                     continue;
@@ -318,6 +331,7 @@ pub struct Adapter {
     reach: Reach,
     far_speed: f64,
     default_linear_gain: f64,
+    model_files: learned::ModelFiles,
 }
 
 impl Adapter {
@@ -329,6 +343,10 @@ impl Adapter {
             reach: Reach::of_model(model),
             far_speed: params.controller.scaling.far_speed,
             default_linear_gain: params.default_linear_gain,
+            model_files: learned::ModelFiles {
+                dir: (!params.primitive_dir.is_empty()).then(|| params.primitive_dir.clone().into()),
+                max_bytes: params.max_model_file_bytes,
+            },
         }
     }
 
@@ -371,9 +389,16 @@ impl Adapter {
     pub fn distances(&self, msg: &LinkDistances, stamp: f64) -> Result<Distances, Rejection> {
         let mut d = Distances::clear(stamp);
         d.count = self.link_names.len().min(MAX_LINKS);
-        if msg.links.len() > d.count {
+        // fDED sends one entry per link; an empty or partial message is no evidence that the
+        // other links are free, so it is refused (and the robot held) rather than read as
+        // "no obstacle".
+        if msg.links.len() != d.count {
             return Err(Rejection {
-                reason: format!("{} link entries, the robot has {} links", msg.links.len(), d.count),
+                reason: format!(
+                    "{} link entries, the robot has {} links (one entry per link is required)",
+                    msg.links.len(),
+                    d.count
+                ),
             });
         }
         for (pos, l) in msg.links.iter().enumerate() {
@@ -430,7 +455,7 @@ impl Adapter {
                     MotionCommandMsg::KIND_GMR => "gmr",
                     _ => "cgmr",
                 };
-                match learned::decode(kind, &msg.parameters_json) {
+                match learned::decode(kind, &msg.parameters_json, &self.model_files) {
                     Ok(m) => model = Some(m),
                     Err(e) => return bad(format!("primitive kind {k} ({kind}): {e}")),
                 }
@@ -582,7 +607,6 @@ fn serve(
     let mut last_status_at = Instant::now();
     // The command that was aborted (id, reason): its statuses read ABORTED while it is current.
     let mut aborted: Option<(u32, String)> = None;
-    let stamp_now = |clock: &Clock| clock.now().unwrap_or(f64::NEG_INFINITY);
     loop {
         if cowork_ros::shutdown::requested()
             || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
@@ -595,18 +619,19 @@ fn serve(
                 ns.store(node.now().to_nanos(), Ordering::Release);
             }
         }
+        // Ages are taken from the messages' header stamps (when the data was measured), not
+        // from arrival: a frame delivered late is as old as it is.
         while let Some(m) = io.joint_sub.take() {
             match adapter.joint_state(&m) {
                 Ok(q) => {
-                    let t = stamp_now(clock);
+                    let t = m.header.stamp.to_secs_f64();
                     inputs.update(|i| i.joints = Some((q, t)));
                 }
                 Err(r) => tracing::warn!("/joint_states rejected: {}", r.reason),
             }
         }
         while let Some(m) = io.dist_sub.take() {
-            let t = stamp_now(clock);
-            match adapter.distances(&m, t) {
+            match adapter.distances(&m, m.header.stamp.to_secs_f64()) {
                 Ok(d) => inputs.update(|i| {
                     i.distances = d;
                     i.distances_rejected = None;
@@ -622,7 +647,7 @@ fn serve(
         while let Some(m) = io.human_sub.take() {
             match adapter.human(&m) {
                 Ok(h) => {
-                    let t = stamp_now(clock);
+                    let t = m.header.stamp.to_secs_f64();
                     inputs.update(|i| i.human = HumanInput { stamp: t, state: h });
                 }
                 Err(r) => tracing::warn!("/human/state rejected: {}", r.reason),
@@ -636,10 +661,27 @@ fn serve(
                     tracing::info!("motion command {} {:?} → ({:.3}, {:.3}, {:.3}) {}", c.id, c.primitive, c.goal.x, c.goal.y, c.goal.z, m.label);
                     aborted = None;
                     // The model first: the loop finds it when it sees the command.
-                    if let Some(model) = model {
-                        io.field_tx.send((c.id, Box::new(model))).map_err(|_| anyhow::anyhow!("the real-time loop stopped"))?;
+                    // Never block here: a stalled real-time loop must not stop the ROS side
+                    // (or Ctrl-C). A model that does not fit is refused and the robot held.
+                    let handed = match model {
+                        None => Ok(()),
+                        Some(model) => match io.field_tx.try_send((c.id, Box::new(model))) {
+                            Ok(()) => Ok(()),
+                            Err(TrySendError::Full(_)) => Err("the real-time loop is not taking models (stalled?)"),
+                            Err(TrySendError::Disconnected(_)) => bail!("the real-time loop stopped"),
+                        },
+                    };
+                    match handed {
+                        Ok(()) => inputs.update(|i| i.command = c),
+                        Err(reason) => {
+                            tracing::warn!("motion command {} aborted, robot held: {reason}", c.id);
+                            inputs.update(|i| i.command = MotionCommand { id: c.id, primitive: Primitive::Hold, ..i.command });
+                            publish_status(io.status_pub, node.now(), c.id, MotionStatus::STATE_ABORTED, reason.into(), f64::NAN)?;
+                            last_status = Some((c.id, MotionStatus::STATE_ABORTED, reason.into()));
+                            last_status_at = Instant::now();
+                            aborted = Some((c.id, reason.into()));
+                        }
                     }
-                    inputs.update(|i| i.command = c);
                 }
                 Err(r) => {
                     tracing::warn!("motion command {} aborted, robot held: {}", m.id, r.reason);

@@ -73,7 +73,11 @@ fn command(id: u32, kind: u8, goal: Vector3<f64>, json: String) -> MotionCommand
 /// Runs the command in a kinematic loop (q += q̇ dt) for `seconds`; returns the final and the
 /// smallest TCP error (m) and the largest commanded TCP speed (m/s).
 fn run(model: &RobotModel, msg: &MotionCommandMsg, seconds: f64) -> (f64, f64, f64) {
-    let adapter = Adapter::new(model, &Params::default());
+    run_with(model, &Params::default(), msg, seconds)
+}
+
+fn run_with(model: &RobotModel, params: &Params, msg: &MotionCommandMsg, seconds: f64) -> (f64, f64, f64) {
+    let adapter = Adapter::new(model, params);
     let (cmd, learned) = adapter.command(msg).expect("command accepted");
     assert_eq!(cmd.primitive, Primitive::Learned);
     let mut field = learned.expect("a decoded model");
@@ -131,18 +135,103 @@ fn learned_primitives_reach_a_new_goal() {
     }
 }
 
-#[test]
-fn a_model_file_can_be_named() {
-    let model = lwr();
-    let dir = std::env::temp_dir().join(format!("ds_controller_learned_{}", std::process::id()));
+fn primitive_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ds_controller_learned_{tag}_{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
-    let path = dir.join("cgmr.json");
-    fit(ModelKind::Cgmr).save(&path).expect("save");
+    dir
+}
+
+#[test]
+fn a_model_file_can_be_named_inside_the_primitive_directory() {
+    let model = lwr();
+    let dir = primitive_dir("named");
+    fit(ModelKind::Cgmr).save(&dir.join("cgmr.json")).expect("save");
+    let params = Params { primitive_dir: dir.display().to_string(), ..Params::default() };
     let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
-    let json = serde_json::json!({ "model_file": path }).to_string();
-    let (err, _, _) = run(&model, &command(2, MotionCommandMsg::KIND_CGMR, x0 + Vector3::new(0.1, 0.05, 0.03), json), 8.0);
+    let json = serde_json::json!({ "model_file": "cgmr.json" }).to_string();
+    let (err, _, _) =
+        run_with(&model, &params, &command(2, MotionCommandMsg::KIND_CGMR, x0 + Vector3::new(0.1, 0.05, 0.03), json), 8.0);
     assert!(err < 0.01, "{err}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A peer must not make the node open files outside the primitive directory, devices, FIFOs
+/// (which would block the ROS thread) or huge files, nor learn whether a path exists.
+#[test]
+fn model_files_outside_the_directory_or_not_plain_small_files_are_refused() {
+    let model = lwr();
+    let dir = primitive_dir("refused");
+    let outside = primitive_dir("outside");
+    fit(ModelKind::Cgmr).save(&outside.join("secret.json")).expect("save");
+    std::os::unix::fs::symlink(outside.join("secret.json"), dir.join("link.json")).expect("symlink");
+    std::fs::create_dir_all(dir.join("sub")).expect("subdir");
+    let fifo = dir.join("fifo.json");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
+    std::fs::write(dir.join("big.json"), vec![b' '; 2048]).expect("big");
+    let params = Params { primitive_dir: dir.display().to_string(), max_model_file_bytes: 1024, ..Params::default() };
+    let adapter = Adapter::new(&model, &params);
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    let secret = outside.join("secret.json").display().to_string();
+    let mut names = vec![
+        (secret.clone(), "relative path"),
+        ("../ds_controller_learned_outside/secret.json".to_owned(), "relative path"),
+        ("link.json".to_owned(), "no readable model file"),
+        ("sub".to_owned(), "no readable model file"),
+        ("big.json".to_owned(), "no readable model file"),
+        ("missing.json".to_owned(), "no readable model file"),
+        ("/dev/zero".to_owned(), "relative path"),
+    ];
+    if made {
+        names.push(("fifo.json".to_owned(), "no readable model file"));
+    }
+    let (mut reasons, t0) = (Vec::new(), std::time::Instant::now());
+    for (name, expected) in names {
+        let json = serde_json::json!({ "model_file": name }).to_string();
+        let r = adapter.command(&command(5, MotionCommandMsg::KIND_CGMR, x0, json)).expect_err("refused");
+        assert!(r.reason.contains(expected), "{name}: {:?} does not contain {expected:?}", r.reason);
+        reasons.push(r.reason);
+    }
+    assert!(t0.elapsed() < std::time::Duration::from_secs(30), "a refusal blocked");
+    // The reason for a missing file equals the one for an existing file behind a link.
+    let generic = |r: &str| r.rsplit(": ").next().map(str::to_owned);
+    assert_eq!(generic(&reasons[2]), generic(&reasons[5]), "{reasons:?}");
+    // Without a directory every model file is refused.
+    let none = Adapter::new(&model, &Params { primitive_dir: String::new(), ..Params::default() });
+    let json = serde_json::json!({ "model_file": "cgmr.json" }).to_string();
+    let r = none.command(&command(6, MotionCommandMsg::KIND_CGMR, x0, json)).expect_err("refused");
+    assert!(r.reason.contains("disabled"), "{}", r.reason);
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&outside).ok();
+}
+
+/// A learned model whose arrays disagree with its dimension or basis used to pass the decoder
+/// and index out of bounds in the 1 kHz step (the real-time thread panicked): every such model
+/// is refused when it is read.
+#[test]
+fn models_with_inconsistent_arrays_are_refused_before_they_run() {
+    let model = lwr();
+    let adapter = Adapter::new(&model, &Params::default());
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    let edit = |kind: ModelKind, f: &dyn Fn(&mut serde_json::Value)| {
+        let mut v = serde_json::to_value(fit(kind)).expect("json");
+        f(&mut v);
+        v.to_string()
+    };
+    let cases: Vec<(u8, String, &str)> = vec![
+        (MotionCommandMsg::KIND_DMP, edit(ModelKind::Dmp, &|v| { v["weights"].as_array_mut().expect("w").truncate(5); }), "weights"),
+        (MotionCommandMsg::KIND_DMP, edit(ModelKind::Dmp, &|v| { v["basis"]["widths"].as_array_mut().expect("w").pop(); }), "widths"),
+        (MotionCommandMsg::KIND_DMP, edit(ModelKind::Dmp, &|v| { v["basis"]["centers"] = serde_json::json!([]); }), "basis"),
+        (MotionCommandMsg::KIND_DMP, edit(ModelKind::Dmp, &|v| { v["goal"] = serde_json::json!([0.1]); }), "goal"),
+        (MotionCommandMsg::KIND_DMP, edit(ModelKind::Dmp, &|v| { v["stiffness"] = serde_json::json!(-1.0); }), "stiffness"),
+        (MotionCommandMsg::KIND_CGMR, edit(ModelKind::Cgmr, &|v| { v["u"].as_array_mut().expect("u").pop(); }), "u"),
+        (MotionCommandMsg::KIND_CGMR, edit(ModelKind::Cgmr, &|v| { v["u"][0].as_array_mut().expect("u0").pop(); }), "u[0]"),
+        (MotionCommandMsg::KIND_CGMR, edit(ModelKind::Cgmr, &|v| { v["ln_delta"] = serde_json::json!([0.0]); }), "ln_delta"),
+        (MotionCommandMsg::KIND_GMR, edit(ModelKind::Gmr, &|v| { v["target"] = serde_json::json!(vec![0.0; 40]); }), "target"),
+    ];
+    for (kind, json, field) in cases {
+        let r = adapter.command(&command(7, kind, x0, json)).expect_err("refused");
+        assert!(r.reason.contains(field), "{field}: {}", r.reason);
+    }
 }
 
 #[test]
@@ -167,7 +256,7 @@ fn malformed_models_are_rejected_with_a_reason() {
         (MotionCommandMsg::KIND_GMR, "{not json".to_owned(), "not JSON"),
         (MotionCommandMsg::KIND_DMP, gmr.clone(), "the model is a gmr model"),
         (MotionCommandMsg::KIND_GMR, two_d, "2-D"),
-        (MotionCommandMsg::KIND_CGMR, r#"{"model_file": "/nonexistent/m.json"}"#.to_owned(), "/nonexistent/m.json"),
+        (MotionCommandMsg::KIND_CGMR, r#"{"model_file": "/nonexistent/m.json"}"#.to_owned(), "relative path"),
     ] {
         let r = adapter.command(&command(3, kind, x0, json)).expect_err("rejected");
         assert!(r.reason.contains(expected), "{:?} does not contain {expected:?}", r.reason);

@@ -12,7 +12,9 @@ use std::time::{Duration, Instant};
 
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion, Vector3};
 use cowork_msgs::msg::{HumanState, LinkDistance, LinkDistances, MotionCommand, MotionStatus};
+use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::std_msgs::Header;
 use cowork_robot::{JointVector, RobotModel};
 use cowork_ros::{NodeConfig, Publisher, RosNode, Subscription, qos};
 use cowork_sim::{Scene, Simulator};
@@ -53,6 +55,8 @@ struct Client {
     last: Option<(f64, JointVector, JointVector)>,
     last_status: Option<MotionStatus>,
     statuses: Vec<(f64, MotionStatus)>,
+    /// URDF link names: fDED sends one entry per link, in this order.
+    link_names: Vec<String>,
 }
 
 impl Graph {
@@ -95,7 +99,18 @@ impl Graph {
         let status = node.subscription::<MotionStatus>("/motion/status", &qos::reliable_depth(10)).expect("sub");
         let joints = node.subscription::<JointState>("/joint_states", &qos::reliable()).expect("sub");
         let mut client =
-            Client { node, distances, human, command, status, joints, last: None, last_status: None, statuses: Vec::new() };
+            Client {
+            node,
+            distances,
+            human,
+            command,
+            status,
+            joints,
+            last: None,
+            last_status: None,
+            statuses: Vec::new(),
+            link_names: model.link_names().to_vec(),
+        };
         let deadline = Instant::now() + Duration::from_secs(20);
         while !(client.distances.subscription_count(&client.node) > 0
             && client.command.subscription_count(&client.node) > 0
@@ -157,13 +172,36 @@ impl Client {
         self.last.as_ref().map_or(f64::INFINITY, |l| l.2.amax())
     }
 
+    /// A header stamped now (the newest simulated time seen) plus `offset_s`.
+    fn header(&self, offset_s: f64) -> Header {
+        Header { stamp: Time::from_nanos(((self.sim_time() + offset_s) * 1e9) as i64), frame_id: "lwr_base_link".into() }
+    }
+
+    /// Distances as fDED sends them, one entry per link (no obstacle in range), with `entry`
+    /// replacing the entry of its link; stamped `offset_s` from now.
+    fn distances_msg(&self, entry: Option<&LinkDistance>, offset_s: f64) -> LinkDistances {
+        let mut links: Vec<LinkDistance> =
+            self.link_names.iter().map(|n| LinkDistance { link_name: n.clone(), ..Default::default() }).collect();
+        if let Some(e) = entry {
+            let i = self.link_names.iter().position(|n| *n == e.link_name).unwrap_or(0);
+            links[i] = e.clone();
+        }
+        LinkDistances { header: self.header(offset_s), links, min_index: -1, backend: "test".into(), ..Default::default() }
+    }
+
     fn clear_distances(&self) {
-        self.distances.publish(LinkDistances { backend: "test".into(), min_index: -1, ..Default::default() }).expect("pub");
+        self.distances.publish(self.distances_msg(None, 0.0)).expect("pub");
     }
 
     fn human_far(&self) {
         self.human
-            .publish(HumanState { mode: HumanState::MODE_FAR, present: false, speed_scale: 0.3, ..Default::default() })
+            .publish(HumanState {
+                header: self.header(0.0),
+                mode: HumanState::MODE_FAR,
+                present: false,
+                speed_scale: 0.3,
+                ..Default::default()
+            })
             .expect("pub");
     }
 
@@ -203,6 +241,10 @@ impl Client {
         }
         false
     }
+}
+
+fn held_still(c: &Client) -> bool {
+    c.max_speed() < 1e-6
 }
 
 fn status_is(c: &Client, id: u32, state: u8) -> bool {
@@ -345,7 +387,6 @@ fn watchdog_stops_on_lost_distances_and_resumes() {
 fn bad_input_is_rejected_with_a_reason_and_the_robot_held() {
     let mut g = Graph::start(3, 80.0);
     let x0 = g.tcp();
-    let held_still = |c: &Client| c.max_speed() < 1e-6;
 
     // Unknown primitive kind.
     g.client.send(1, 9, x0, vec![]);
@@ -374,22 +415,8 @@ fn bad_input_is_rejected_with_a_reason_and_the_robot_held() {
         ("normal", LinkDistance { link_name: "lwr_link_4".into(), distance: 0.2, normal: Vector3 { x: f64::INFINITY, y: 0.0, z: 0.0 }, valid: true, ..Default::default() }),
         ("zero", LinkDistance { link_name: "lwr_link_4".into(), distance: 0.2, normal: Vector3::default(), valid: true, ..Default::default() }),
     ] {
-        let bad = LinkDistances { links: vec![entry], min_index: 0, backend: "test".into(), ..Default::default() };
-        let mut next = Instant::now();
-        let end = Instant::now() + Duration::from_secs(5);
-        let mut seen = false;
-        while Instant::now() < end && !(seen && held_still(&g.client)) {
-            if Instant::now() >= next {
-                g.client.distances.publish(bad.clone()).expect("pub");
-                g.client.human_far();
-                next += Duration::from_millis(10);
-            }
-            g.client.pump();
-            seen |= g.client.last_status.as_ref().is_some_and(|s| {
-                s.command_id == 4 && s.state == MotionStatus::STATE_HELD && s.reason.contains("lwr_link_4") && s.reason.contains(if what == "zero" { "zero obstacle normal" } else { what })
-            });
-            std::thread::sleep(Duration::from_millis(1));
-        }
+        let reason = if what == "zero" { "zero obstacle normal" } else { what };
+        let seen = held_while(&mut g.client, 4, |c| c.distances_msg(Some(&entry), 0.0), &["lwr_link_4", reason]);
         assert!(seen, "{what}: no HELD status naming lwr_link_4; last {:?}", g.client.last_status);
         assert!(held_still(&g.client), "{what}: robot not held");
         // Valid data again: the motion resumes.
@@ -397,11 +424,8 @@ fn bad_input_is_rejected_with_a_reason_and_the_robot_held() {
     }
 
     // An unknown link name is rejected by the adapter.
-    let bad = LinkDistances {
-        links: vec![LinkDistance { link_name: "elbow".into(), distance: 0.2, normal: Vector3 { x: 1.0, y: 0.0, z: 0.0 }, valid: true, ..Default::default() }],
-        min_index: 0,
-        ..Default::default()
-    };
+    let mut bad = g.client.distances_msg(None, 0.0);
+    bad.links[4] = LinkDistance { link_name: "elbow".into(), distance: 0.2, normal: Vector3 { x: 1.0, y: 0.0, z: 0.0 }, valid: true, ..Default::default() };
     g.client.distances.publish(bad).expect("pub");
     assert!(
         g.client.run_for(5.0, false, |c| c.statuses.iter().any(|(_, s)| s.reason.contains("unknown link name \"elbow\""))),
@@ -409,4 +433,44 @@ fn bad_input_is_rejected_with_a_reason_and_the_robot_held() {
         g.client.last_status
     );
     assert!(g.client.run_for(5.0, false, held_still), "robot not held after a malformed distances message");
+    assert!(g.client.run_for(10.0, true, |c| status_is(c, 4, MotionStatus::STATE_RUNNING) && c.max_speed() > 0.005), "no resume");
+
+    // Fail closed on what used to read as "no obstacle" or as fresh: an empty distances
+    // message, distances measured 0.5 s ago (delivered now), distances stamped 1 s in the
+    // future (a clock that went back).
+    let cases: [(&str, fn(&Client) -> LinkDistances, &str); 3] = [
+        ("empty", |c| LinkDistances { header: c.header(0.0), min_index: -1, ..Default::default() }, "one entry per link"),
+        ("late", |c| c.distances_msg(None, -0.5), "exceeds"),
+        ("future", |c| c.distances_msg(None, 1.0), "negative"),
+    ];
+    for (what, make, reason) in cases {
+        let seen = held_while(&mut g.client, 4, make, &[reason]);
+        assert!(seen, "{what}: no HELD status with {reason:?}; last {:?}", g.client.last_status);
+        assert!(held_still(&g.client), "{what}: robot not held");
+        assert!(g.client.run_for(10.0, true, |c| status_is(c, 4, MotionStatus::STATE_RUNNING) && c.max_speed() > 0.005), "{what}: no resume");
+    }
+}
+
+/// Publishes `make(client)` as the distances (and a far, absent person) every 10 ms for up to
+/// 5 s, until command `id` is HELD with a reason containing every one of `reason_has` and the
+/// robot is still; whether that HELD status was seen.
+fn held_while(c: &mut Client, id: u32, make: impl Fn(&Client) -> LinkDistances, reason_has: &[&str]) -> bool {
+    let mut next = Instant::now();
+    let end = Instant::now() + Duration::from_secs(5);
+    let mut seen = false;
+    let mut checked = c.statuses.len();
+    while Instant::now() < end && !(seen && held_still(c)) {
+        if Instant::now() >= next {
+            c.distances.publish(make(c)).expect("pub");
+            c.human_far();
+            next += Duration::from_millis(10);
+        }
+        c.pump();
+        seen |= c.statuses[checked..].iter().any(|(_, s)| {
+            s.command_id == id && s.state == MotionStatus::STATE_HELD && reason_has.iter().all(|r| s.reason.contains(r))
+        });
+        checked = c.statuses.len();
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    seen
 }

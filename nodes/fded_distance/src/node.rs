@@ -297,6 +297,16 @@ impl FdedNode {
         self.depth
             .read_image_msg(image)
             .map_err(|e| skip("image", format!("{TOPIC_DEPTH}: frame skipped: {e}")))?;
+        let (valid, total) = (self.depth.valid_count(), self.depth.data.len());
+        if (valid as f64) < self.params.min_valid_fraction * total as f64 {
+            return Err(skip(
+                "blind",
+                format!(
+                    "{TOPIC_DEPTH}: blind camera: {valid} of {total} pixels have a depth return (min_valid_fraction {}); no distances published, so the robot is held",
+                    self.params.min_valid_fraction
+                ),
+            ));
+        }
         let stamp = image.header.stamp.to_secs_f64();
         let Some(q) = self.joints_for(stamp) else {
             return Err(skip("no_joint_state", format!("{TOPIC_DEPTH}: frame skipped: no valid {TOPIC_JOINT_STATES} yet")));

@@ -29,6 +29,10 @@ pub struct Params {
     pub publish_markers: bool,
     /// Length of the obstacle-normal arrows on `/fded/markers`, m.
     pub normal_arrow_length_m: f64,
+    /// A frame in which fewer than this fraction of the pixels have a depth return is a blind
+    /// (covered, dazzled, broken) camera: no distances are published for it, so the
+    /// controller's watchdog holds the robot instead of reading "no obstacle".
+    pub min_valid_fraction: f64,
     /// fDED parameters (thesis Table 5.1 defaults).
     pub fded: FdedParams,
 }
@@ -49,6 +53,7 @@ impl Default for Params {
             warning_period_s: 5.0,
             publish_markers: true,
             normal_arrow_length_m: 0.1,
+            min_valid_fraction: 0.05,
             fded: FdedParams::default(),
         }
     }
@@ -67,6 +72,9 @@ impl Params {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{place}: `{name}` = {v} must be a positive number");
             }
+        }
+        if !(0.0..1.0).contains(&self.min_valid_fraction) {
+            bail!("{place}: `min_valid_fraction` = {} must be in [0, 1)", self.min_valid_fraction);
         }
         let p = &self.camera_pose;
         let finite = p

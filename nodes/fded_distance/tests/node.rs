@@ -35,6 +35,9 @@ fn params() -> Params {
     let mut p: Params =
         cowork_ros::params::load(&root().join("config/fded_distance.yaml"), "fded_distance").expect("bundled parameters");
     p.urdf = root().join("config/robot/lwr4plus.urdf").display().to_string();
+    // The test frames show the robot and one sphere in front of nothing (no table, no walls):
+    // a few per cent of the pixels, which the bundled blind-camera bound would refuse.
+    p.min_valid_fraction = 0.005;
     p
 }
 
@@ -183,13 +186,19 @@ fn bad_input_is_skipped_and_good_frames_match_the_library() {
     let mut bad_step = msg32.clone();
     bad_step.step = 4 * k.width - 4;
     assert_eq!(node.on_depth(&bad_step).expect_err("step below width").kind, "image");
-    // All-NaN and all-zero frames are valid frames with nothing in view.
+    // All-NaN and all-zero frames are a blind (covered) camera, not free space: no distances
+    // are published for them (the controller's watchdog then holds the robot).
     let nan = Image { data: f32::NAN.to_le_bytes().repeat((k.width * k.height) as usize), ..msg32.clone() };
-    let none = node.on_depth(&nan).expect("NaN frame").clone();
+    let s = node.on_depth(&nan).expect_err("NaN frame");
+    assert_eq!(s.kind, "blind");
+    assert!(s.message.contains("blind camera") && s.message.contains("0 of 307200"), "{}", s.message);
+    let zero = Image { data: vec![0; msg16.data.len()], ..msg16.clone() };
+    assert_eq!(node.on_depth(&zero).expect_err("all-zero 16UC1 frame").kind, "blind");
+    // A frame with returns but no obstacle: every link invalid, markers deleted.
+    let far = Image { data: 9.5f32.to_le_bytes().repeat((k.width * k.height) as usize), ..msg32.clone() };
+    let none = node.on_depth(&far).expect("a far wall").clone();
     assert_eq!(none.min_index, -1);
     assert!(none.links.iter().all(|l| !l.valid));
-    let zero = Image { data: vec![0; msg16.data.len()], ..msg16.clone() };
-    assert_eq!(node.on_depth(&zero).expect("all-zero 16UC1 frame").min_index, -1);
     assert!(node.markers().markers.iter().all(|mk| mk.action == Marker::DELETE), "nothing seen: markers deleted");
     let again = node.on_depth(&msg32).expect("good frame after bad ones").clone();
     assert!((again.links[again.min_index as usize].distance - want).abs() <= 1e-3);

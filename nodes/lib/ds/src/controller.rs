@@ -51,6 +51,9 @@ pub struct ControllerConfig {
     pub period_s: f64,
     /// Distance or human data older than this stop the robot (s).
     pub stale_after_s: f64,
+    /// Data stamped more than this in the controller's future stop the robot too (s): the
+    /// clock went back, or the sender's clock is not the controller's.
+    pub future_tolerance_s: f64,
     /// Joint deceleration while braking to a hold (rad/s²), > 0.
     pub brake_deceleration: f64,
     /// After a hold, the Cartesian command ramps from 0 to full over this time (s), ≥ 0.
@@ -76,6 +79,7 @@ impl Default for ControllerConfig {
         Self {
             period_s: 0.001,
             stale_after_s: 0.1,
+            future_tolerance_s: 0.02,
             brake_deceleration: 10.0,
             resume_time_s: 0.2,
             goal_tolerance_m: 0.005,
@@ -116,6 +120,12 @@ impl ControllerConfig {
             c.stale_after_s,
             c.stale_after_s > 0.0,
             "must be > 0 s",
+        )?;
+        check(
+            "future_tolerance_s",
+            c.future_tolerance_s,
+            c.future_tolerance_s >= 0.0 && c.future_tolerance_s <= c.stale_after_s,
+            "must be in [0, stale_after_s] s",
         )?;
         check(
             "brake_deceleration",
@@ -732,8 +742,9 @@ impl DsController {
         }
         let stale = |stream, stamp: f64| {
             let age = input.time - stamp;
-            // NaN stamps fail this comparison too.
-            if age <= self.cfg.stale_after_s {
+            // NaN stamps fail this comparison too; so do stamps from the future (a clock that
+            // went back must not make old data look fresh).
+            if age <= self.cfg.stale_after_s && age >= -self.cfg.future_tolerance_s {
                 Ok(())
             } else {
                 Err(Fault::Stale {

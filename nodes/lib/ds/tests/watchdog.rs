@@ -106,3 +106,32 @@ fn never_received_data_is_stale() {
     );
     assert_eq!(out.qdot.norm(), 0.0);
 }
+
+/// A clock that went back (lwr_sim restarted, a looped `/clock`) makes the last data look
+/// "fresh" by a plain `age <= bound` check (negative age): it must hold the robot instead,
+/// for both streams, and name the cause.
+#[test]
+fn data_stamped_in_the_future_is_stale() {
+    let model = common::lwr();
+    let cfg = ControllerConfig::default();
+    let q = common::q_start();
+    let goal = common::tip_position(&model, &q) + Vector3::new(0.0, 0.2, 0.0);
+    for stream in [Stream::Distances, Stream::Human] {
+        let mut ctl = DsController::new(model.clone(), cfg).expect("config");
+        let mut out = ControlOutput::default();
+        // Within the tolerance (a clock a tick behind its sender): fine.
+        let mut input = common::input(q, common::command(common::linear(1.0), goal), 3.0);
+        let ahead = |s: &mut cowork_ds::ControlInput, by: f64| match stream {
+            Stream::Distances => s.distances.stamp = s.time + by,
+            _ => s.human.stamp = s.time + by,
+        };
+        ahead(&mut input, 0.5 * cfg.future_tolerance_s);
+        ctl.step(&input, &mut out).expect("a stamp a little ahead is accepted");
+        // The clock jumped back 5 s: the data is 5 s in the future.
+        ahead(&mut input, 5.0);
+        let err = ctl.step(&input, &mut out).expect_err("data from the future");
+        assert!(matches!(err, Fault::Stale { stream: s, age_s, .. } if s == stream && age_s < 0.0), "{err:?}");
+        assert!(err.to_string().contains("negative"), "{err}");
+        assert!(matches!(out.status, Status::Held(HoldReason::Fault(_))));
+    }
+}

@@ -289,6 +289,31 @@ impl Cgmr {
         Ok(())
     }
 
+    /// Checks a C-GMR read from a file or a message before it is run: the GMR-DS
+    /// ([`GmrDs::validate`]), one gain diagonal of the state's dimension and one `ln δ_k` per
+    /// component, finite gains, no NaN threshold, a finite non-negative ball radius, a
+    /// non-negative `t_max` and valid settings.
+    pub fn validate(&self) -> Result<()> {
+        self.ds.validate()?;
+        let (k, n) = (self.ds.gmr.n_components(), self.dim());
+        check_dim("u (one gain diagonal per component)", k, self.u.len())?;
+        for (c, u) in self.u.iter().enumerate() {
+            check_dim(&format!("u[{c}]"), n, u.len())?;
+            check_finite(&format!("u[{c}]"), u)?;
+        }
+        check_dim("ln_delta (one per component)", k, self.ln_delta.len())?;
+        if let Some(c) = self.ln_delta.iter().position(|v| v.is_nan()) {
+            return Err(invalid("ln_delta", format!("component {c} is NaN")));
+        }
+        if !(self.ball_radius.is_finite() && self.ball_radius >= 0.0) {
+            return Err(invalid("ball_radius", format!("{} (must be non-negative and finite)", self.ball_radius)));
+        }
+        if !(self.t_max >= 0.0) {
+            return Err(invalid("t_max", format!("{} s (must be non-negative)", self.t_max)));
+        }
+        self.config.validate()
+    }
+
     /// State dimension.
     pub fn dim(&self) -> usize {
         self.ds.dim()

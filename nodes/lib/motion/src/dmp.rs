@@ -89,6 +89,23 @@ pub struct Basis {
 }
 
 impl Basis {
+    /// Checks a basis read from a file or a message: equal, non-zero numbers of centres and
+    /// widths, finite centres, positive finite widths and phase decay `γ`.
+    pub fn validate(&self) -> Result<()> {
+        if self.centers.is_empty() {
+            return Err(invalid("basis.centers", "no basis function"));
+        }
+        check_dim("basis.widths (one per centre)", self.centers.len(), self.widths.len())?;
+        check_finite("basis.centers", &self.centers)?;
+        if let Some(i) = self.widths.iter().position(|w| !(w.is_finite() && *w > 0.0)) {
+            return Err(invalid("basis.widths", format!("width {i} is {} (must be positive and finite)", self.widths[i])));
+        }
+        if !(self.gamma.is_finite() && self.gamma > 0.0) {
+            return Err(invalid("basis.gamma", format!("{} (must be positive and finite)", self.gamma)));
+        }
+        Ok(())
+    }
+
     fn new(n: usize, gamma: f64, duration: f64) -> Self {
         let centers: Vec<f64> = (0..n)
             .map(|k| {
@@ -170,7 +187,39 @@ pub struct Dmp {
     pub duration: f64,
 }
 
+/// Checks the gains and duration shared by position and orientation DMPs.
+fn validate_gains(stiffness: f64, damping: f64, duration: f64) -> Result<()> {
+    if !(stiffness.is_finite() && stiffness > 0.0) {
+        return Err(invalid("stiffness", format!("{stiffness} (must be positive and finite)")));
+    }
+    if !(damping.is_finite() && damping >= 0.0) {
+        return Err(invalid("damping", format!("{damping} (must be non-negative and finite)")));
+    }
+    if !(duration.is_finite() && duration > 0.0) {
+        return Err(invalid("duration", format!("{duration} s (must be positive and finite)")));
+    }
+    Ok(())
+}
+
 impl Dmp {
+    /// Checks a DMP read from a file or a message before it is run: every array has the length
+    /// its dimension and basis imply (`weights`: `n_basis × dim`, `start` and `goal`: `dim`),
+    /// every value is finite, gains and duration are in range. A DMP that passes can be run by
+    /// [`forcing`](Self::forcing) and [`rollout`](Self::rollout) without indexing out of bounds.
+    pub fn validate(&self) -> Result<()> {
+        if self.dim == 0 || self.dim > crate::gmr::MAX_DIM {
+            return Err(invalid("dim", format!("{} (must be in 1..={})", self.dim, crate::gmr::MAX_DIM)));
+        }
+        self.basis.validate()?;
+        check_dim("weights (n_basis × dim)", self.basis.centers.len() * self.dim, self.weights.len())?;
+        check_dim("start", self.dim, self.start.len())?;
+        check_dim("goal", self.dim, self.goal.len())?;
+        check_finite("weights", &self.weights)?;
+        check_finite("start", &self.start)?;
+        check_finite("goal", &self.goal)?;
+        validate_gains(self.stiffness, self.damping, self.duration)
+    }
+
     /// Learns from one demonstration (velocities from the demo, accelerations by differences).
     pub fn fit(demo: &Demonstration, cfg: &DmpConfig) -> Result<Self> {
         cfg.validate()?;
@@ -330,6 +379,21 @@ fn rot_err(g: &UnitQuaternion<f64>, q: &UnitQuaternion<f64>) -> Vector3<f64> {
 }
 
 impl OrientationDmp {
+    /// Checks an orientation DMP read from a file or a message (as [`Dmp::validate`]; the
+    /// start and goal quaternions must be finite and of unit norm within 1e-6).
+    pub fn validate(&self) -> Result<()> {
+        self.basis.validate()?;
+        check_dim("weights (n_basis × 3)", self.basis.centers.len() * 3, self.weights.len())?;
+        check_finite("weights", &self.weights)?;
+        for (name, q) in [("start", &self.start), ("goal", &self.goal)] {
+            let c = q.as_ref().coords;
+            if !(c.iter().all(|v| v.is_finite()) && (c.norm() - 1.0).abs() <= 1e-6) {
+                return Err(invalid(name, format!("quaternion {:?} is not a finite unit quaternion", c.as_slice())));
+            }
+        }
+        validate_gains(self.stiffness, self.damping, self.duration)
+    }
+
     /// Learns from sampled orientations at strictly increasing times `t` (s).
     pub fn fit(t: &[f64], q: &[UnitQuaternion<f64>], cfg: &DmpConfig) -> Result<Self> {
         cfg.validate()?;

@@ -282,6 +282,14 @@ impl GmrDs {
         })
     }
 
+    /// Checks a GMR-DS read from a file or a message (the mixture itself is checked when it is
+    /// read): the target is finite and as long as the regressor's input and output.
+    pub fn validate(&self) -> Result<()> {
+        check_dim("GMR-DS target (regressor input)", self.gmr.n_in(), self.target.len())?;
+        check_dim("GMR-DS output (regressor input)", self.gmr.n_in(), self.gmr.n_out())?;
+        check_finite("GMR-DS target", &self.target)
+    }
+
     /// State dimension `n`.
     pub fn dim(&self) -> usize {
         self.target.len()

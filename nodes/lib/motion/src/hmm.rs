@@ -81,6 +81,37 @@ struct Emissions {
 }
 
 impl HmmPrimitive {
+    /// Checks an HMM primitive read from a file: at least one state, `prior` and `durations`
+    /// of one value per state, `trans` of `L × L`, each state's mean, covariance and cross
+    /// covariance of the dimension's sizes, every value finite, a positive sampling period.
+    pub fn validate(&self) -> Result<()> {
+        let (l, n) = (self.states.len(), self.dim);
+        if l == 0 || n == 0 {
+            return Err(invalid("states", format!("{l} states of dimension {n} (need at least one of each)")));
+        }
+        check_dim("prior (one per state)", l, self.prior.len())?;
+        check_dim("trans (states × states)", l * l, self.trans.len())?;
+        check_dim("durations (one per state)", l, self.durations.len())?;
+        check_finite("prior", &self.prior)?;
+        check_finite("trans", &self.trans)?;
+        check_finite("durations", &self.durations)?;
+        for (i, st) in self.states.iter().enumerate() {
+            check_dim(&format!("states[{i}].mean"), n, st.mean.len())?;
+            check_dim(&format!("states[{i}].cov"), n * n, st.cov.len())?;
+            check_dim(&format!("states[{i}].ts_cov"), n, st.ts_cov.len())?;
+            for (what, v) in [("mean", &st.mean), ("cov", &st.cov), ("ts_cov", &st.ts_cov)] {
+                check_finite(&format!("states[{i}].{what}"), v)?;
+            }
+            if !(st.t_mean.is_finite() && st.t_var.is_finite() && st.t_var > 0.0) {
+                return Err(invalid(&format!("states[{i}]"), "temporal mean / variance not finite or variance not positive"));
+            }
+        }
+        if !(self.dt.is_finite() && self.dt > 0.0) {
+            return Err(invalid("dt", format!("{} s (must be positive and finite)", self.dt)));
+        }
+        Ok(())
+    }
+
     /// State dimension.
     pub fn dim(&self) -> usize {
         self.dim

@@ -75,9 +75,10 @@ impl Default for FitOptions {
     }
 }
 
-/// A learned model.
+/// A learned model. Reading one (from a file or from JSON in a message) checks it completely
+/// ([`Model::validate`]): a model that deserialises can be run without indexing out of bounds.
 #[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase")]
+#[serde(tag = "kind", rename_all = "lowercase", try_from = "UncheckedModel")]
 pub enum Model {
     /// DMP.
     Dmp(Dmp),
@@ -89,7 +90,43 @@ pub enum Model {
     Hmm(HmmPrimitive),
 }
 
+/// The serialised form of [`Model`] before [`Model::validate`].
+#[derive(Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+enum UncheckedModel {
+    Dmp(Dmp),
+    Gmr(GmrDs),
+    Cgmr(Cgmr),
+    Hmm(HmmPrimitive),
+}
+
+impl TryFrom<UncheckedModel> for Model {
+    type Error = MotionError;
+    fn try_from(m: UncheckedModel) -> Result<Self> {
+        let m = match m {
+            UncheckedModel::Dmp(m) => Self::Dmp(m),
+            UncheckedModel::Gmr(m) => Self::Gmr(m),
+            UncheckedModel::Cgmr(m) => Self::Cgmr(m),
+            UncheckedModel::Hmm(m) => Self::Hmm(m),
+        };
+        m.validate()?;
+        Ok(m)
+    }
+}
+
 impl Model {
+    /// Checks every array length and value a run of the model relies on (see
+    /// [`Dmp::validate`], [`GmrDs::validate`], [`Cgmr::validate`],
+    /// [`HmmPrimitive::validate`]).
+    pub fn validate(&self) -> Result<()> {
+        match self {
+            Self::Dmp(m) => m.validate(),
+            Self::Gmr(m) => m.validate(),
+            Self::Cgmr(m) => m.validate(),
+            Self::Hmm(m) => m.validate(),
+        }
+    }
+
     /// Learns a model of `kind` from the demonstrations.
     pub fn fit(kind: ModelKind, demos: &[Demonstration], opts: &FitOptions) -> Result<Self> {
         crate::demo::common_dim(demos)?;
@@ -231,18 +268,14 @@ impl Model {
         Ok(out)
     }
 
-    /// Writes the model as JSON, atomically (temporary file + rename).
+    /// Writes the model as JSON, atomically and durably ([`cowork_store::write_atomic`]): a
+    /// crash at any instant leaves the old file or the new one.
     pub fn save(&self, path: &Path) -> Result<()> {
         let text = serde_json::to_string_pretty(self).map_err(|e| MotionError::Io {
             file: path.to_path_buf(),
             source: std::io::Error::other(e),
         })?;
-        let tmp = path.with_extension("tmp-write");
-        std::fs::write(&tmp, text).map_err(|source| MotionError::Io {
-            file: tmp.clone(),
-            source,
-        })?;
-        std::fs::rename(&tmp, path).map_err(|source| MotionError::Io {
+        cowork_store::write_atomic(path, text.as_bytes()).map_err(|source| MotionError::Io {
             file: path.to_path_buf(),
             source,
         })

@@ -3,7 +3,6 @@
 //! save/load.
 
 use std::collections::HashMap;
-use std::io::Write as _;
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -55,19 +54,11 @@ impl Ltm {
         Self::parse(&text)
     }
 
-    /// Writes the canonical text atomically: a temporary file in the same directory, flushed
-    /// and synced, then renamed over `path`. A crash leaves either the old or the new file.
+    /// Writes the canonical text atomically and durably ([`cowork_store::write_atomic`]:
+    /// temporary file, fsync, rename, directory fsync). A crash leaves the old or the new file.
     pub fn save(&self, path: &Path) -> Result<()> {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let io = |op: &'static str| move |source| Error::Io { op, path: path.to_owned(), source };
-        let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io("creating a temporary file for"))?;
-        tmp.write_all(self.to_text().as_bytes()).map_err(io("writing"))?;
-        tmp.as_file().sync_all().map_err(io("syncing"))?;
-        tmp.persist(path).map_err(|e| Error::Io { op: "renaming into", path: path.to_owned(), source: e.error })?;
-        Ok(())
+        cowork_store::write_atomic(path, self.to_text().as_bytes())
+            .map_err(|source| Error::Io { op: "saving", path: path.to_owned(), source })
     }
 
     /// Canonical schema text (what `save` writes).
