@@ -1,0 +1,152 @@
+//! Parameters of the robot manager (thesis Table 5.3 defaults).
+
+use std::collections::BTreeMap;
+
+use cowork_motion::dmp::DmpConfig;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ManagerError, Result};
+
+/// Name of the pseudo-object whose frame is the robot base (goals that belong to no object).
+pub const WORLD: &str = "world";
+
+/// Robot manager configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ManagerConfig {
+    /// Robot name: the primitive database is `<database_dir>/<robot>.primitives.json`.
+    pub robot: String,
+    /// Radius r of the proximity sphere around every object, m (Table 5.3: 0.12), measured
+    /// from the tool point to the object's surface.
+    pub proximity_radius_m: f64,
+    /// Scene object name → task object name (the name the LTM uses, e.g. `bottle: water`).
+    /// Scene objects not listed are neither segmented against nor reported.
+    pub objects: BTreeMap<String, String>,
+    /// NOA learning: DMP gains K (1/s²), D (None: 2√K), γ·duration (5), basis count.
+    pub dmp: DmpConfig,
+    /// A segment whose tool path is shorter than this and whose rotation is below
+    /// `min_segment_rotation_rad` has no motion: it is dropped and logged, m.
+    pub min_segment_motion_m: f64,
+    /// See `min_segment_motion_m`, rad.
+    pub min_segment_rotation_rad: f64,
+    /// Gain k of the FOA linear DS ẋ = k (g − x), 1/s.
+    pub foa_gain: f64,
+    /// Nominal end-effector speed of every commanded motion, m/s (before human scaling).
+    pub nominal_speed_m_s: f64,
+    /// A motion that has not converged this long after it started fails, s.
+    pub action_timeout_s: f64,
+    /// A gripper action the simulator has not reported this long after the command fails, s.
+    pub gripper_timeout_s: f64,
+    /// World state older than this cannot start an action (the object pose is unknown), s.
+    pub world_stale_s: f64,
+}
+
+impl Default for ManagerConfig {
+    fn default() -> Self {
+        let objects = [("bottle", "water"), ("cup", "cup"), ("coffee", "coffee"), ("spoon", "spoon"), ("tea", "tea")]
+            .into_iter()
+            .map(|(a, b)| (a.to_owned(), b.to_owned()))
+            .collect();
+        Self {
+            robot: "lwr".into(),
+            proximity_radius_m: 0.12,
+            objects,
+            dmp: DmpConfig { n_basis: 30, stiffness: 70.0, damping: None, gamma_times_duration: 5.0, ridge: 1e-8 },
+            min_segment_motion_m: 0.01,
+            min_segment_rotation_rad: 0.05,
+            foa_gain: 2.0,
+            nominal_speed_m_s: 0.3,
+            action_timeout_s: 120.0,
+            gripper_timeout_s: 3.0,
+            world_stale_s: 0.5,
+        }
+    }
+}
+
+impl ManagerConfig {
+    /// Rejects NaN, out-of-range values and unusable names.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |field: &str, value: String, reason: &str| {
+            Err(ManagerError::Config { field: field.into(), value, reason: reason.into() })
+        };
+        if self.robot.is_empty() || !self.robot.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+            return bad("robot", format!("{:?}", self.robot), "must be a non-empty file-name-safe word ([A-Za-z0-9_-])");
+        }
+        for (field, v, lo) in [
+            ("proximity_radius_m", self.proximity_radius_m, 0.0),
+            ("min_segment_motion_m", self.min_segment_motion_m, -1.0),
+            ("min_segment_rotation_rad", self.min_segment_rotation_rad, -1.0),
+            ("foa_gain", self.foa_gain, 0.0),
+            ("nominal_speed_m_s", self.nominal_speed_m_s, 0.0),
+            ("action_timeout_s", self.action_timeout_s, 0.0),
+            ("gripper_timeout_s", self.gripper_timeout_s, 0.0),
+            ("world_stale_s", self.world_stale_s, 0.0),
+        ] {
+            if !(v.is_finite() && v > lo && (lo >= 0.0 || v >= 0.0)) {
+                return bad(field, v.to_string(), "must be finite and positive (non-negative for the motion thresholds)");
+            }
+        }
+        if self.nominal_speed_m_s > 2.0 {
+            return bad("nominal_speed_m_s", self.nominal_speed_m_s.to_string(), "above 2 m/s");
+        }
+        if let Err(e) = self.dmp.validate() {
+            return bad("dmp", format!("{:?}", self.dmp), &e.to_string());
+        }
+        let mut seen = std::collections::BTreeSet::new();
+        for (scene, task) in &self.objects {
+            let word = |s: &str| !s.is_empty() && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+            if !word(scene) || !word(task) || task.chars().next().is_some_and(|c| c.is_ascii_uppercase()) {
+                return bad(
+                    "objects",
+                    format!("{scene}: {task}"),
+                    "names must be words of [A-Za-z0-9_], the task name starting lower-case (an LTM atom)",
+                );
+            }
+            if task == WORLD {
+                return bad("objects", format!("{scene}: {task}"), "`world` is the base frame, not an object");
+            }
+            if !seen.insert(task.as_str()) {
+                return bad("objects", format!("{scene}: {task}"), "two scene objects map to the same task name");
+            }
+        }
+        Ok(())
+    }
+
+    /// Task name of a scene object, if it is listed.
+    pub fn task_name(&self, scene: &str) -> Option<&str> {
+        self.objects.get(scene).map(String::as_str)
+    }
+
+    /// Scene name of a task object, if one maps to it.
+    pub fn scene_name(&self, task: &str) -> Option<&str> {
+        self.objects.iter().find(|(_, t)| t.as_str() == task).map(|(s, _)| s.as_str())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_table_5_3_and_valid() {
+        let c = ManagerConfig::default();
+        c.validate().expect("defaults");
+        assert_eq!(c.proximity_radius_m, 0.12);
+        assert_eq!(c.dmp.stiffness, 70.0);
+        assert_eq!(c.dmp.damping, None, "D = 2 sqrt(K)");
+        assert_eq!(c.dmp.gamma_times_duration, 5.0, "gamma = 5 / duration");
+        assert_eq!(c.task_name("bottle"), Some("water"));
+        assert_eq!(c.scene_name("water"), Some("bottle"));
+    }
+
+    #[test]
+    fn bad_values_name_the_field() {
+        let mut c = ManagerConfig { proximity_radius_m: f64::NAN, ..ManagerConfig::default() };
+        assert!(c.validate().expect_err("nan").to_string().contains("proximity_radius_m"));
+        c.proximity_radius_m = 0.12;
+        c.objects.insert("box".into(), "water".into());
+        assert!(c.validate().expect_err("dup").to_string().contains("same task name"));
+        let c = ManagerConfig { robot: "../etc".into(), ..ManagerConfig::default() };
+        assert!(c.validate().expect_err("path").to_string().contains("robot"));
+    }
+}

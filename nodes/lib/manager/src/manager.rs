@@ -1,0 +1,624 @@
+//! The robot manager's state machine (thesis Sec. 4.3.1, 5.2.1, Fig. 4.10): typed inputs in,
+//! typed outputs out, time given by the caller — no I/O, so tests run it on a mock clock.
+
+use nalgebra::Isometry3;
+
+use crate::config::{ManagerConfig, WORLD};
+use crate::database::Database;
+use crate::label::Label;
+use crate::primitive::{MotionPlan, Primitive};
+use crate::segment::{ActionKind, GripperCommand, Note, Segment, Segmenter};
+use crate::world::{World, WorldReport};
+
+/// Teaching or executing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Executing the supervisor's actions (or holding).
+    Execute,
+    /// Kinesthetic teaching: the arm is let go (zero-gravity admittance) and segmented.
+    Teach,
+}
+
+/// State of a motion as the controller reports it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MotionState {
+    /// Running.
+    Running,
+    /// Goal reached.
+    Converged,
+    /// Refused or faulted.
+    Aborted,
+    /// Held (stale inputs, speed 0, hold command); resumes by itself.
+    Held,
+}
+
+/// An action command of the supervisor.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActionRequest {
+    /// Command id.
+    pub id: u32,
+    /// Label, e.g. `noa2(water)`.
+    pub label: String,
+    /// Abort the current action.
+    pub stop: bool,
+}
+
+/// A controller status.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionReport {
+    /// Id of the motion command it belongs to.
+    pub command_id: u32,
+    /// State.
+    pub state: MotionState,
+    /// Why (aborted / held).
+    pub reason: String,
+}
+
+/// An input, at the time given to [`Manager::handle`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    /// The simulator's world report.
+    World(WorldReport),
+    /// A speech command.
+    Speech(String),
+    /// A supervisor command.
+    Action(ActionRequest),
+    /// A controller status.
+    Motion(MotionReport),
+    /// Time passes (timeouts).
+    Tick,
+}
+
+/// A motion for the controller.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionOrder {
+    /// Motion command id (increasing).
+    pub id: u32,
+    /// Action label (empty for a hold).
+    pub label: String,
+    /// What to run; `None` holds the arm.
+    pub plan: Option<MotionPlan>,
+    /// Nominal speed, m/s.
+    pub nominal_speed: f64,
+}
+
+/// An action started, done or failed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ActionReport {
+    /// Label.
+    pub label: String,
+    /// Kind.
+    pub kind: ActionKind,
+    /// Supervisor command id (0 while teaching).
+    pub command_id: u32,
+    /// Accomplished (a.done).
+    pub done: bool,
+    /// Could not be accomplished.
+    pub failed: bool,
+    /// Why it failed.
+    pub reason: String,
+}
+
+/// A segment learned while teaching.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentReport {
+    /// Label.
+    pub label: String,
+    /// Kind.
+    pub kind: ActionKind,
+    /// Object whose frame holds the goal (`world` for the base).
+    pub object: String,
+    /// Start, s.
+    pub t_start: f64,
+    /// End, s.
+    pub t_end: f64,
+    /// Goal (end pose), base frame.
+    pub goal: Isometry3<f64>,
+    /// Database key (empty for a segment that was not learned).
+    pub primitive_id: String,
+}
+
+/// An output.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Output {
+    /// To the controller (`/motion/command`).
+    Motion(MotionOrder),
+    /// To the gripper (`/lwr/gripper_command`).
+    Gripper(GripperCommand),
+    /// Action event (`/robot_stream`).
+    Action(ActionReport),
+    /// Segment (`/robot_stream`).
+    Segment(SegmentReport),
+    /// The database changed (save it).
+    DatabaseChanged,
+    /// Mode switched.
+    Mode(Mode),
+    /// Something worth an info log line.
+    Info(String),
+    /// Bad input or a failure, with what was done about it.
+    Warn(String),
+}
+
+/// The time of an input: simulated (s) and wall clock (Unix s, stamped into primitives).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stamp {
+    /// Simulated (or ROS) time, s.
+    pub t: f64,
+    /// Wall clock, s since the Unix epoch.
+    pub unix_s: u64,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+struct Running {
+    command_id: u32,
+    label: String,
+    kind: ActionKind,
+    primitive: Option<Primitive>,
+    gripper: Option<GripperCommand>,
+    object: String,
+    started: f64,
+    motion_id: Option<u32>,
+}
+
+/// Spoken words the manager understands.
+pub const VOCABULARY: &str = "teach, done, stop, repeat, gripper open, gripper close, human <subtask>";
+
+/// The robot manager.
+#[derive(Debug)]
+pub struct Manager {
+    cfg: ManagerConfig,
+    db: Database,
+    mode: Mode,
+    world: Option<World>,
+    segmenter: Option<Segmenter>,
+    demonstration: String,
+    motion_id: u32,
+    current: Option<Running>,
+    interrupted: Option<Running>,
+    segments: Vec<Segment>,
+    notes: Vec<Note>,
+    learned: Vec<(Segment, Primitive)>,
+}
+
+impl Manager {
+    /// A manager in execute mode with `db` (which must belong to `cfg.robot`).
+    pub fn new(cfg: ManagerConfig, db: Database) -> Self {
+        Self {
+            cfg,
+            db,
+            mode: Mode::Execute,
+            world: None,
+            segmenter: None,
+            demonstration: String::new(),
+            motion_id: 0,
+            current: None,
+            interrupted: None,
+            segments: Vec::new(),
+            notes: Vec::new(),
+            learned: Vec::new(),
+        }
+    }
+
+    /// The database.
+    pub fn database(&self) -> &Database {
+        &self.db
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ManagerConfig {
+        &self.cfg
+    }
+
+    /// Mode.
+    pub fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// Latest world (task names).
+    pub fn world(&self) -> Option<&World> {
+        self.world.as_ref()
+    }
+
+    /// Label of the action running now.
+    pub fn running(&self) -> Option<&str> {
+        self.current.as_ref().map(|r| r.label.as_str())
+    }
+
+    /// Every (segment, primitive) learned so far, in order (for offline evaluation).
+    pub fn learned(&self) -> &[(Segment, Primitive)] {
+        &self.learned
+    }
+
+    /// Names the demonstration stored in the next primitives' `source` (bag file or session).
+    pub fn set_demonstration(&mut self, name: &str) {
+        name.clone_into(&mut self.demonstration);
+    }
+
+    /// Handles one input at `now`, appending what it causes to `out`.
+    pub fn handle(&mut self, input: &Input, now: Stamp, out: &mut Vec<Output>) {
+        match input {
+            Input::World(r) => self.on_world(r, now, out),
+            Input::Speech(text) => self.on_speech(text, now, out),
+            Input::Action(a) => self.on_action(a, now, out),
+            Input::Motion(m) => self.on_motion(m, out),
+            Input::Tick => self.on_tick(now, out),
+        }
+    }
+
+    fn hold(&mut self, label: &str, out: &mut Vec<Output>) {
+        self.motion_id += 1;
+        out.push(Output::Motion(MotionOrder {
+            id: self.motion_id,
+            label: label.to_owned(),
+            plan: None,
+            nominal_speed: self.cfg.nominal_speed_m_s,
+        }));
+    }
+
+    fn report(out: &mut Vec<Output>, r: &Running, done: bool, failed: bool, reason: String) {
+        out.push(Output::Action(ActionReport {
+            label: r.label.clone(),
+            kind: r.kind,
+            command_id: r.command_id,
+            done,
+            failed,
+            reason,
+        }));
+    }
+
+    fn fail(&mut self, r: &Running, reason: String, out: &mut Vec<Output>) {
+        out.push(Output::Warn(format!("action {} (command {}) failed: {reason}; robot held", r.label, r.command_id)));
+        Self::report(out, r, false, true, reason);
+        self.hold(&r.label, out);
+    }
+
+    fn on_world(&mut self, r: &WorldReport, now: Stamp, out: &mut Vec<Output>) {
+        let world = match World::from_report(r, &self.cfg) {
+            Ok(w) => w,
+            Err(e) => return out.push(Output::Warn(format!("/lwr/world: {e}; report ignored"))),
+        };
+        if let Some(s) = self.segmenter.as_mut() {
+            if !s.started() {
+                s.start(&world);
+            } else {
+                s.observe(&world, &mut self.segments, &mut self.notes);
+            }
+        }
+        self.world = Some(world);
+        self.flush_teaching(now, out);
+        // A gripper action is done when the simulator reports it.
+        let Some(cur) = self.current.clone() else { return };
+        let (Some(cmd), Some(w)) = (cur.gripper, self.world.as_ref()) else { return };
+        let done = match cmd {
+            GripperCommand::Close => w.gripper_closed && w.held.is_some(),
+            GripperCommand::Open => !w.gripper_closed && w.held.is_none(),
+        };
+        if done {
+            if cmd == GripperCommand::Close && cur.object != WORLD && w.held.as_deref() != Some(cur.object.as_str()) {
+                out.push(Output::Warn(format!(
+                    "{}: the gripper holds {} instead of {}",
+                    cur.label,
+                    w.held.as_deref().unwrap_or("nothing"),
+                    cur.object
+                )));
+            }
+            self.current = None;
+            out.push(Output::Info(format!("{} done: {}", cur.label, w.held.as_deref().map_or("hand free".to_owned(), |h| format!("holding {h}")))));
+            Self::report(out, &cur, true, false, String::new());
+        }
+    }
+
+    fn flush_teaching(&mut self, now: Stamp, out: &mut Vec<Output>) {
+        for n in self.notes.drain(..) {
+            out.push(Output::Warn(format!("teaching at {:.2} s: {}", n.t, n.text)));
+        }
+        let mut changed = false;
+        for seg in std::mem::take(&mut self.segments) {
+            match Primitive::learn(&seg, &self.cfg.dmp, self.cfg.foa_gain, &self.demonstration, now.unix_s) {
+                Ok(p) => {
+                    out.push(Output::Info(format!(
+                        "segment {} ({:?}) {:.2}–{:.2} s, {} samples, goal in the frame of {}",
+                        seg.label,
+                        seg.kind,
+                        seg.t_start,
+                        seg.t_end,
+                        seg.samples.len(),
+                        seg.object
+                    )));
+                    out.push(Output::Segment(SegmentReport {
+                        label: seg.label.clone(),
+                        kind: seg.kind,
+                        object: seg.object.clone(),
+                        t_start: seg.t_start,
+                        t_end: seg.t_end,
+                        goal: seg.end_pose(),
+                        primitive_id: p.id.clone(),
+                    }));
+                    self.db.insert(p.clone());
+                    self.learned.push((seg, p));
+                    changed = true;
+                }
+                Err(e) => out.push(Output::Warn(format!("{e}: the segment is not learned and not sent to the supervisor"))),
+            }
+        }
+        if let Some(s) = &self.segmenter {
+            self.db.next_index = self.db.next_index.max(s.next_index());
+        }
+        if changed {
+            out.push(Output::DatabaseChanged);
+        }
+    }
+
+    fn on_speech(&mut self, raw: &str, now: Stamp, out: &mut Vec<Output>) {
+        let text = raw.trim().to_lowercase();
+        let words: Vec<&str> = text.split_whitespace().collect();
+        match words.as_slice() {
+            ["teach"] => {
+                if self.mode == Mode::Teach {
+                    return out.push(Output::Warn("speech `teach`: already teaching; ignored".into()));
+                }
+                if let Some(cur) = self.current.take() {
+                    out.push(Output::Info(format!("{} interrupted by teaching", cur.label)));
+                }
+                self.interrupted = None;
+                self.mode = Mode::Teach;
+                let mut s = Segmenter::new(&self.cfg, self.db.next_index);
+                match &self.world {
+                    Some(w) => s.start(w),
+                    None => out.push(Output::Warn("teaching without a /lwr/world report yet: segmentation starts with the first one".into())),
+                }
+                self.segmenter = Some(s);
+                self.hold("", out);
+                out.push(Output::Mode(Mode::Teach));
+                out.push(Output::Info("teach mode: the arm is let go (zero-gravity admittance); guide it".into()));
+            }
+            ["done"] => {
+                if self.mode != Mode::Teach {
+                    return out.push(Output::Warn("speech `done`: not teaching; ignored".into()));
+                }
+                if let (Some(s), Some(w)) = (self.segmenter.as_mut(), self.world.as_ref()) {
+                    s.finish(w, &mut self.segments, &mut self.notes);
+                }
+                self.flush_teaching(now, out);
+                self.segmenter = None;
+                self.mode = Mode::Execute;
+                self.hold("", out);
+                out.push(Output::Mode(Mode::Execute));
+            }
+            ["stop"] => {
+                if self.mode == Mode::Teach {
+                    return out.push(Output::Warn("speech `stop` while teaching: the arm is already let go; ignored".into()));
+                }
+                match self.current.take() {
+                    Some(cur) => {
+                        out.push(Output::Info(format!("stop: {} interrupted, arm held (say `repeat` to resume)", cur.label)));
+                        self.hold(&cur.label, out);
+                        self.interrupted = Some(cur);
+                    }
+                    None => {
+                        self.hold("", out);
+                        out.push(Output::Info("stop: nothing running, arm held".into()));
+                    }
+                }
+            }
+            ["repeat"] => match self.interrupted.take() {
+                Some(r) if self.mode == Mode::Execute => {
+                    out.push(Output::Info(format!("repeat: resuming {}", r.label)));
+                    let req = ActionRequest { id: r.command_id, label: r.label.clone(), stop: false };
+                    self.start(&req, now, out);
+                }
+                Some(r) => {
+                    self.interrupted = Some(r);
+                    out.push(Output::Warn("speech `repeat` while teaching; ignored".into()));
+                }
+                None => out.push(Output::Warn("speech `repeat`: nothing was interrupted; ignored".into())),
+            },
+            ["gripper", w @ ("open" | "close")] => {
+                let cmd = if *w == "open" { GripperCommand::Open } else { GripperCommand::Close };
+                let held = self.world.as_ref().and_then(|w| w.held.clone());
+                let closed = self.world.as_ref().is_some_and(|w| w.gripper_closed);
+                if cmd == GripperCommand::Open && held.is_none() && !closed {
+                    out.push(Output::Warn("speech `gripper open` while the hand holds nothing and is open: sent anyway".into()));
+                }
+                out.push(Output::Gripper(cmd));
+                if self.mode == Mode::Teach {
+                    match (self.segmenter.as_mut(), self.world.as_ref()) {
+                        (Some(s), Some(w)) => s.gripper(w, cmd, None, &mut self.segments, &mut self.notes),
+                        _ => out.push(Output::Warn(format!("speech `gripper {w}` before any /lwr/world report: no segment"))),
+                    }
+                    self.flush_teaching(now, out);
+                }
+            }
+            ["human", rest @ ..] if !rest.is_empty() => {
+                out.push(Output::Info(format!("speech `{text}`: the supervisor gives that subtask to the person")));
+            }
+            _ => out.push(Output::Warn(format!("speech {raw:?} is not in the vocabulary ({VOCABULARY}); ignored"))),
+        }
+    }
+
+    fn on_action(&mut self, a: &ActionRequest, now: Stamp, out: &mut Vec<Output>) {
+        if self.mode == Mode::Teach {
+            return out.push(Output::Warn(format!(
+                "/supervisor/action {} (id {}) while teaching: ignored (say `done` first)",
+                if a.stop { "stop" } else { a.label.as_str() },
+                a.id
+            )));
+        }
+        if a.stop {
+            match self.current.take() {
+                Some(cur) => {
+                    out.push(Output::Info(format!("supervisor stop: {} interrupted, arm held", cur.label)));
+                    self.hold(&cur.label, out);
+                    self.interrupted = Some(cur);
+                }
+                None => self.hold("", out),
+            }
+            return;
+        }
+        if let Some(cur) = self.current.as_mut()
+            && cur.label == a.label
+        {
+            // The same action again (e.g. after `repeat`): adopt the new id, keep running.
+            cur.command_id = a.id;
+            return;
+        }
+        self.start(a, now, out);
+    }
+
+    fn start(&mut self, a: &ActionRequest, now: Stamp, out: &mut Vec<Output>) {
+        if let Some(prev) = self.current.take() {
+            out.push(Output::Info(format!("{} replaced by {}", prev.label, a.label)));
+        }
+        self.interrupted = None;
+        let mut run = Running {
+            command_id: a.id,
+            label: a.label.clone(),
+            kind: ActionKind::Foa,
+            primitive: None,
+            gripper: None,
+            object: WORLD.to_owned(),
+            started: now.t,
+            motion_id: None,
+        };
+        let label = match Label::parse(&a.label) {
+            Ok(l) => l,
+            Err(e) => return self.fail(&run, e, out),
+        };
+        if let Some(p) = self.db.get(&label.functor).cloned() {
+            run.kind = p.kind;
+            run.gripper = p.gripper;
+            run.object = p.object.clone();
+            // Reuse on another object: `foa1(coffee)` runs foa1 learned on water in coffee's frame.
+            if let Some(arg) = label.args.first()
+                && p.relative_to_object()
+                && *arg != p.object
+            {
+                if self.cfg.objects.values().any(|t| t == arg) {
+                    run.object = arg.clone();
+                } else {
+                    return self.fail(
+                        &run,
+                        format!("label argument `{arg}` is not a known object (primitive {} was learned on {})", p.id, p.object),
+                        out,
+                    );
+                }
+            }
+            run.primitive = Some(p);
+        } else if label.functor == "gripper" && matches!(label.args.as_slice(), [w] if w == "close" || w == "open") {
+            run.kind = ActionKind::Gripper;
+            run.gripper = Some(if label.args[0] == "close" { GripperCommand::Close } else { GripperCommand::Open });
+        } else {
+            let known: Vec<&str> = self.db.primitives.keys().map(String::as_str).collect();
+            return self.fail(
+                &run,
+                format!(
+                    "no primitive `{}` for action `{}` in the database of robot `{}` (known: {})",
+                    label.functor,
+                    a.label,
+                    self.db.robot,
+                    if known.is_empty() { "none".to_owned() } else { known.join(", ") }
+                ),
+                out,
+            );
+        }
+        let world = match &self.world {
+            Some(w) if now.t - w.t <= self.cfg.world_stale_s => w,
+            Some(w) => {
+                let age = now.t - w.t;
+                return self.fail(&run, format!("the last /lwr/world report is {age:.2} s old (limit {} s)", self.cfg.world_stale_s), out);
+            }
+            None => return self.fail(&run, "no /lwr/world report yet: object poses unknown".into(), out),
+        };
+        if let Some(cmd) = run.gripper {
+            if cmd == GripperCommand::Close
+                && let Some(h) = &world.held
+            {
+                return self.fail(&run, format!("the hand already holds {h}"), out);
+            }
+            if cmd == GripperCommand::Open && world.held.is_none() && !world.gripper_closed {
+                out.push(Output::Warn(format!("{}: the hand holds nothing and is open; done at once", run.label)));
+                Self::report(out, &run, false, false, String::new());
+                Self::report(out, &run, true, false, String::new());
+                return;
+            }
+            out.push(Output::Gripper(cmd));
+            Self::report(out, &run, false, false, String::new());
+            self.current = Some(run);
+            return;
+        }
+        let pose = if run.object == WORLD {
+            Isometry3::identity()
+        } else {
+            match world.object(&run.object) {
+                Some(o) if o.visible => o.pose,
+                Some(_) => return self.fail(&run, format!("object `{}` is not visible", run.object), out),
+                None => {
+                    let names: Vec<&str> = world.objects.iter().map(|o| o.name.as_str()).collect();
+                    return self.fail(
+                        &run,
+                        format!("object `{}` is not in the scene (objects: {})", run.object, names.join(", ")),
+                        out,
+                    );
+                }
+            }
+        };
+        let plan = match run.primitive.as_ref().map(|p| p.plan(&pose)) {
+            Some(Ok(p)) => p,
+            Some(Err(e)) => return self.fail(&run, e.to_string(), out),
+            None => return self.fail(&run, "no primitive".into(), out),
+        };
+        self.motion_id += 1;
+        run.motion_id = Some(self.motion_id);
+        out.push(Output::Motion(MotionOrder {
+            id: self.motion_id,
+            label: run.label.clone(),
+            plan: Some(plan),
+            nominal_speed: self.cfg.nominal_speed_m_s,
+        }));
+        Self::report(out, &run, false, false, String::new());
+        self.current = Some(run);
+    }
+
+    fn on_motion(&mut self, m: &MotionReport, out: &mut Vec<Output>) {
+        if m.command_id == 0 || m.command_id > self.motion_id {
+            return out.push(Output::Warn(format!(
+                "/motion/status for unknown command id {} (last sent {}): ignored",
+                m.command_id, self.motion_id
+            )));
+        }
+        let Some(cur) = self.current.clone() else { return };
+        if cur.motion_id != Some(m.command_id) {
+            return; // a status of an older command (or of a hold)
+        }
+        match m.state {
+            MotionState::Converged => {
+                self.current = None;
+                out.push(Output::Info(format!("{} done", cur.label)));
+                Self::report(out, &cur, true, false, String::new());
+            }
+            MotionState::Aborted => {
+                self.current = None;
+                let reason = if m.reason.is_empty() { "aborted by the controller".to_owned() } else { m.reason.clone() };
+                self.fail(&cur, reason, out);
+            }
+            MotionState::Running | MotionState::Held => {}
+        }
+    }
+
+    fn on_tick(&mut self, now: Stamp, out: &mut Vec<Output>) {
+        let Some(cur) = self.current.clone() else { return };
+        let elapsed = now.t - cur.started;
+        let limit = if cur.gripper.is_some() { self.cfg.gripper_timeout_s } else { self.cfg.action_timeout_s };
+        if elapsed > limit {
+            self.current = None;
+            let why = match (cur.gripper, self.world.as_ref()) {
+                (Some(GripperCommand::Close), Some(w)) if w.gripper_closed && w.held.is_none() => {
+                    "the gripper closed on nothing (no object within reach)".to_owned()
+                }
+                (Some(_), _) => "the simulator did not report the gripper state".to_owned(),
+                _ => "the motion did not converge".to_owned(),
+            };
+            self.fail(&cur, format!("timed out after {elapsed:.1} s (limit {limit} s): {why}"), out);
+        }
+    }
+}

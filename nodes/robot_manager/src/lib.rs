@@ -1,0 +1,46 @@
+//! The `robot_manager` node: a thin ROS 2 adapter around [`cowork_manager::Manager`]
+//! (thesis Sec. 4.3.1, 5.2.1, Fig. 4.10).
+//!
+//! | topic | type | direction |
+//! |---|---|---|
+//! | `/lwr/world` | cowork_msgs/WorldState (tool pose, gripper, held object, object poses) | in |
+//! | `/speech_command` | std_msgs/String (`teach`, `done`, `stop`, `repeat`, `gripper open\|close`, `human <subtask>`) | in |
+//! | `/supervisor/action` | cowork_msgs/ActionCommand | in |
+//! | `/motion/status` | cowork_msgs/MotionStatus | in |
+//! | `/human/gesture` | cowork_msgs/Gesture (`stop` = stop, `come` = repeat) | in |
+//! | `/motion/command` | cowork_msgs/MotionCommand (FOA `KIND_LINEAR`, NOA `KIND_DMP`, `KIND_HOLD`) | out |
+//! | `/lwr/gripper_command` | std_msgs/String `open` / `close` | out |
+//! | `/robot_stream` | cowork_msgs/RobotStream (EE pose, gripper, held object, mode, events, segments) | out |
+//! | `/object_stream` | cowork_msgs/ObjectStream (task names, pose, tool distance, visible) | out |
+//!
+//! [`node`] holds the handlers (no I/O), [`run`] the DDS loop, [`params`] the parameters.
+
+pub mod node;
+pub mod params;
+pub mod run;
+
+pub use node::{Outbox, RobotManagerNode};
+pub use params::Params;
+pub use run::{RunOptions, run};
+
+/// Topics, defined once.
+pub mod topics {
+    /// In: the simulator's world state.
+    pub const WORLD: &str = "/lwr/world";
+    /// In: speech.
+    pub const SPEECH: &str = "/speech_command";
+    /// In: supervisor actions.
+    pub const ACTION: &str = "/supervisor/action";
+    /// In: controller status.
+    pub const MOTION_STATUS: &str = "/motion/status";
+    /// In: gestures.
+    pub const GESTURE: &str = "/human/gesture";
+    /// Out: controller commands.
+    pub const MOTION_COMMAND: &str = "/motion/command";
+    /// Out: gripper.
+    pub const GRIPPER: &str = "/lwr/gripper_command";
+    /// Out: robot state for the supervisor.
+    pub const ROBOT_STREAM: &str = "/robot_stream";
+    /// Out: objects for the supervisor.
+    pub const OBJECT_STREAM: &str = "/object_stream";
+}

@@ -1,0 +1,391 @@
+//! The node's state and one handler per message: messages in, messages out, no I/O (logging
+//! aside). Tests drive it with messages and a mock clock.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use cowork_manager::{
+    ActionKind, ActionRequest, Database, GripperCommand, Input, Manager, MotionPlan, MotionReport, MotionState, Mode,
+    ObjectReport, Output, Stamp, WorldReport,
+};
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion};
+use cowork_msgs::msg::{
+    ActionCommand, ActionEvent, ActionSegment, Gesture, MotionCommand, MotionStatus, ObjectState, ObjectStream,
+    RobotStream, WorldState,
+};
+use cowork_msgs::std_msgs::{Header, String as RosString};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+
+use crate::params::Params;
+
+/// What one handler call produced, to be published.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct Outbox {
+    /// `/motion/command`.
+    pub motion: Vec<MotionCommand>,
+    /// `/lwr/gripper_command`.
+    pub gripper: Vec<RosString>,
+    /// `/robot_stream`.
+    pub robot_stream: Vec<RobotStream>,
+    /// `/object_stream`.
+    pub object_stream: Vec<ObjectStream>,
+}
+
+impl Outbox {
+    /// Empties every list.
+    pub fn clear(&mut self) {
+        self.motion.clear();
+        self.gripper.clear();
+        self.robot_stream.clear();
+        self.object_stream.clear();
+    }
+}
+
+/// Identical warnings at most once per period (wall clock), with the count of the others.
+#[derive(Debug)]
+pub struct WarnLimiter {
+    period_s: f64,
+    last: HashMap<String, (Instant, u64)>,
+}
+
+impl WarnLimiter {
+    /// A limiter with this period, s.
+    pub fn new(period_s: f64) -> Self {
+        Self { period_s, last: HashMap::new() }
+    }
+
+    /// Logs `text` unless it was logged less than a period ago.
+    pub fn warn(&mut self, text: &str) {
+        let now = Instant::now();
+        if self.last.len() > 256 {
+            let p = self.period_s;
+            self.last.retain(|_, (t, _)| now.duration_since(*t).as_secs_f64() < p);
+        }
+        match self.last.get_mut(text) {
+            Some((t, n)) if now.duration_since(*t).as_secs_f64() < self.period_s => *n += 1,
+            Some((t, n)) => {
+                tracing::warn!("{text} (repeated {n} more times)");
+                *t = now;
+                *n = 0;
+            }
+            None => {
+                tracing::warn!("{text}");
+                self.last.insert(text.to_owned(), (now, 0));
+            }
+        }
+    }
+}
+
+/// Rounds a ROS time to seconds.
+pub fn seconds(t: &Time) -> f64 {
+    t.to_secs_f64()
+}
+
+fn isometry(p: &Pose) -> Isometry3<f64> {
+    let q = &p.orientation;
+    let quat = nalgebra::Quaternion::new(q.w, q.x, q.y, q.z);
+    let rot = if quat.norm() > 1e-9 && quat.coords.iter().all(|v| v.is_finite()) {
+        UnitQuaternion::new_normalize(quat)
+    } else {
+        // Left non-finite on purpose: the library refuses the report, naming the field.
+        UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(f64::NAN, 0.0, 0.0, 0.0))
+    };
+    Isometry3::from_parts(Translation3::new(p.position.x, p.position.y, p.position.z), rot)
+}
+
+/// An isometry as a `geometry_msgs/Pose`.
+pub fn pose(p: &Isometry3<f64>) -> Pose {
+    let t = p.translation.vector;
+    let q = p.rotation.coords;
+    Pose { position: Point { x: t.x, y: t.y, z: t.z }, orientation: Quaternion { x: q.x, y: q.y, z: q.z, w: q.w } }
+}
+
+/// `/lwr/world` → the library's world report.
+pub fn world_report(msg: &WorldState) -> WorldReport {
+    WorldReport {
+        t: seconds(&msg.header.stamp),
+        tool: isometry(&msg.tool_pose),
+        gripper_closed: msg.gripper_state == WorldState::GRIPPER_CLOSED,
+        held: (!msg.held_object.is_empty()).then(|| msg.held_object.clone()),
+        objects: msg
+            .objects
+            .iter()
+            .map(|o| ObjectReport {
+                name: o.name.clone(),
+                pose: isometry(&o.pose),
+                distance: o.tool_distance,
+                tilt: o.tilt,
+                visible: true,
+            })
+            .collect(),
+    }
+}
+
+/// Action kind → `ActionEvent::KIND_*` (the same codes as `ActionSegment`).
+pub fn kind_code(k: ActionKind) -> u8 {
+    match k {
+        ActionKind::Noa => ActionEvent::KIND_NOA,
+        ActionKind::Foa => ActionEvent::KIND_FOA,
+        ActionKind::Gripper => ActionEvent::KIND_GRIPPER,
+    }
+}
+
+/// The robot manager with its message conversions.
+#[derive(Debug)]
+pub struct RobotManagerNode {
+    manager: Manager,
+    params: Params,
+    db_path: PathBuf,
+    db_dirty: bool,
+    events: Vec<ActionEvent>,
+    segments: Vec<ActionSegment>,
+    last_stream_s: Option<f64>,
+    out: Vec<Output>,
+    limiter: WarnLimiter,
+    warnings: u64,
+    last_world: Option<WorldState>,
+}
+
+impl RobotManagerNode {
+    /// Loads the database of `params.manager.robot` from `params.database_dir`. A database file
+    /// that does not load is moved aside to `<file>.corrupt-<unix s>` (so nothing learned is
+    /// lost) and the node starts empty; the error says why, naming the file and field.
+    pub fn new(params: Params, unix_s: u64) -> (Self, Option<String>) {
+        let db_path = Database::path(Path::new(&params.database_dir), &params.manager.robot);
+        let mut problem = None;
+        let db = match Database::load_or_new(&db_path, &params.manager.robot) {
+            Ok(db) if db.robot == params.manager.robot => db,
+            Ok(db) => {
+                problem = Some(format!(
+                    "primitive database {} belongs to robot `{}`, not `{}`: not used",
+                    db_path.display(),
+                    db.robot,
+                    params.manager.robot
+                ));
+                Database::new(&params.manager.robot)
+            }
+            Err(e) => {
+                let aside = PathBuf::from(format!("{}.corrupt-{unix_s}", db_path.display()));
+                let moved = match std::fs::rename(&db_path, &aside) {
+                    Ok(()) => format!("moved to {}", aside.display()),
+                    Err(m) => format!("could not be moved aside ({m}); it is left as it is and new primitives are not saved over it"),
+                };
+                problem = Some(format!("{e}; the file is {moved}; starting with an empty database"));
+                Database::new(&params.manager.robot)
+            }
+        };
+        let limiter = WarnLimiter::new(params.warning_period_s);
+        let node = Self {
+            manager: Manager::new(params.manager.clone(), db),
+            params,
+            db_path,
+            db_dirty: false,
+            events: Vec::new(),
+            segments: Vec::new(),
+            last_stream_s: None,
+            out: Vec::new(),
+            limiter,
+            warnings: 0,
+            last_world: None,
+        };
+        (node, problem)
+    }
+
+    /// The library object.
+    pub fn manager(&self) -> &Manager {
+        &self.manager
+    }
+
+    /// Database file.
+    pub fn database_path(&self) -> &Path {
+        &self.db_path
+    }
+
+    /// Warnings so far.
+    pub fn warnings(&self) -> u64 {
+        self.warnings
+    }
+
+    /// Whether something learned is not saved yet.
+    pub fn database_dirty(&self) -> bool {
+        self.db_dirty
+    }
+
+    /// Saves the database (atomically) if it changed; true when it saved.
+    pub fn save_if_changed(&mut self) -> cowork_manager::Result<bool> {
+        if !self.db_dirty {
+            return Ok(false);
+        }
+        if let Some(dir) = self.db_path.parent()
+            && !dir.as_os_str().is_empty()
+        {
+            std::fs::create_dir_all(dir).map_err(|source| cowork_manager::ManagerError::Io {
+                op: "creating the directory of",
+                path: self.db_path.clone(),
+                source,
+            })?;
+        }
+        self.manager.database().save(&self.db_path)?;
+        self.db_dirty = false;
+        Ok(true)
+    }
+
+    fn warn(&mut self, text: &str) {
+        self.warnings += 1;
+        self.limiter.warn(text);
+    }
+
+    fn run(&mut self, input: Input, now: Stamp, outbox: &mut Outbox) {
+        self.out.clear();
+        self.manager.handle(&input, now, &mut self.out);
+        let outs = std::mem::take(&mut self.out);
+        let mut urgent = false;
+        let stamp = Time::from_secs_f64(now.t.max(0.0));
+        for o in &outs {
+            match o {
+                Output::Motion(m) => {
+                    let mut c = MotionCommand {
+                        header: Header { stamp, frame_id: String::new() },
+                        id: m.id,
+                        label: m.label.clone(),
+                        nominal_speed: m.nominal_speed,
+                        ..Default::default()
+                    };
+                    match &m.plan {
+                        None => c.kind = MotionCommand::KIND_HOLD,
+                        Some(MotionPlan::Linear { goal, gain }) => {
+                            c.kind = MotionCommand::KIND_LINEAR;
+                            c.parameters = vec![*gain];
+                            c.goal = pose(goal);
+                        }
+                        Some(MotionPlan::Dmp { goal, model_json }) => {
+                            c.kind = MotionCommand::KIND_DMP;
+                            c.parameters_json.clone_from(model_json);
+                            c.goal = pose(goal);
+                        }
+                        Some(MotionPlan::Gripper(_)) => continue,
+                    }
+                    if c.kind == MotionCommand::KIND_HOLD {
+                        // Ignored by the controller, but a valid pose for any reader.
+                        c.goal = self.last_world.as_ref().map_or_else(|| pose(&Isometry3::identity()), |w| w.tool_pose.clone());
+                    }
+                    outbox.motion.push(c);
+                }
+                Output::Gripper(g) => outbox.gripper.push(RosString {
+                    data: match g {
+                        GripperCommand::Close => "close".into(),
+                        GripperCommand::Open => "open".into(),
+                    },
+                }),
+                Output::Action(a) => self.events.push(ActionEvent {
+                    label: a.label.clone(),
+                    kind: kind_code(a.kind),
+                    command_id: a.command_id,
+                    done: a.done,
+                    failed: a.failed,
+                    reason: a.reason.clone(),
+                }),
+                Output::Segment(s) => self.segments.push(ActionSegment {
+                    label: s.label.clone(),
+                    kind: kind_code(s.kind),
+                    object_name: s.object.clone(),
+                    start_time: Time::from_secs_f64(s.t_start.max(0.0)),
+                    end_time: Time::from_secs_f64(s.t_end.max(0.0)),
+                    goal: pose(&s.goal),
+                    primitive_id: s.primitive_id.clone(),
+                }),
+                Output::DatabaseChanged => self.db_dirty = true,
+                Output::Mode(m) => {
+                    urgent = true;
+                    tracing::info!("mode: {m:?}");
+                }
+                Output::Info(t) => tracing::info!("{t}"),
+                Output::Warn(t) => self.warn(t),
+            }
+        }
+        self.out = outs;
+        let urgent = urgent || !self.events.is_empty() || !self.segments.is_empty();
+        let due = self.last_stream_s.is_none_or(|l| now.t - l >= 1.0 / self.params.stream_rate_hz || now.t < l);
+        if (urgent || due) && self.last_world.is_some() {
+            self.streams(stamp, outbox);
+            self.last_stream_s = Some(now.t);
+        }
+    }
+
+    fn streams(&mut self, stamp: Time, outbox: &mut Outbox) {
+        let Some(w) = self.manager.world() else { return };
+        let header = Header { stamp, frame_id: self.last_world.as_ref().map(|w| w.header.frame_id.clone()).unwrap_or_default() };
+        outbox.robot_stream.push(RobotStream {
+            header: header.clone(),
+            ee_pose: pose(&w.tool),
+            gripper_state: if w.gripper_closed { RobotStream::GRIPPER_CLOSED } else { RobotStream::GRIPPER_OPEN },
+            held_object: w.held.clone().unwrap_or_default(),
+            mode: match self.manager.mode() {
+                Mode::Execute => RobotStream::MODE_EXECUTE,
+                Mode::Teach => RobotStream::MODE_TEACH,
+            },
+            events: std::mem::take(&mut self.events),
+            segments: std::mem::take(&mut self.segments),
+        });
+        outbox.object_stream.push(ObjectStream {
+            header,
+            objects: w
+                .objects
+                .iter()
+                .map(|o| ObjectState { name: o.name.clone(), pose: pose(&o.pose), robot_distance: o.distance, visible: o.visible })
+                .collect(),
+        });
+    }
+
+    /// `/lwr/world`.
+    pub fn on_world(&mut self, msg: &WorldState, now: Stamp, outbox: &mut Outbox) {
+        self.last_world = Some(msg.clone());
+        self.run(Input::World(world_report(msg)), now, outbox);
+    }
+
+    /// `/speech_command`.
+    pub fn on_speech(&mut self, msg: &RosString, now: Stamp, outbox: &mut Outbox) {
+        self.run(Input::Speech(msg.data.clone()), now, outbox);
+    }
+
+    /// `/supervisor/action`.
+    pub fn on_action(&mut self, msg: &ActionCommand, now: Stamp, outbox: &mut Outbox) {
+        self.run(Input::Action(ActionRequest { id: msg.id, label: msg.label.clone(), stop: msg.stop }), now, outbox);
+    }
+
+    /// `/motion/status`.
+    pub fn on_motion_status(&mut self, msg: &MotionStatus, now: Stamp, outbox: &mut Outbox) {
+        let state = match msg.state {
+            MotionStatus::STATE_RUNNING => MotionState::Running,
+            MotionStatus::STATE_CONVERGED => MotionState::Converged,
+            MotionStatus::STATE_ABORTED => MotionState::Aborted,
+            MotionStatus::STATE_HELD => MotionState::Held,
+            other => {
+                return self.warn(&format!(
+                    "/motion/status: unknown state {other} for command {} (expected 0..3); ignored",
+                    msg.command_id
+                ));
+            }
+        };
+        self.run(Input::Motion(MotionReport { command_id: msg.command_id, state, reason: msg.reason.clone() }), now, outbox);
+    }
+
+    /// `/human/gesture`: `stop` stops like the spoken word, `come` resumes like `repeat`;
+    /// other gestures are the observer's business.
+    pub fn on_gesture(&mut self, msg: &Gesture, now: Stamp, outbox: &mut Outbox) {
+        let word = match msg.label.as_str() {
+            Gesture::LABEL_STOP => "stop",
+            Gesture::LABEL_COME if self.manager.mode() == Mode::Execute => "repeat",
+            Gesture::LABEL_COME | Gesture::LABEL_HANDOVER_RIGHT => return,
+            other => return self.warn(&format!("/human/gesture: unknown label {other:?}; ignored")),
+        };
+        self.run(Input::Speech(word.into()), now, outbox);
+    }
+
+    /// Timeouts.
+    pub fn tick(&mut self, now: Stamp, outbox: &mut Outbox) {
+        self.run(Input::Tick, now, outbox);
+    }
+}
