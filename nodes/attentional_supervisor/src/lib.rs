@@ -146,9 +146,14 @@ pub fn objects_event(msg: &ObjectStream) -> Event {
     Event::Objects { objects }
 }
 
-/// `/speech_command` → `speech` event (the library judges the vocabulary).
+/// Longest speech command passed on whole (characters); no word of the vocabulary comes close.
+pub const MAX_SPEECH_CHARS: usize = 200;
+
+/// `/speech_command` → `speech` event (the library judges the vocabulary). A text longer than
+/// [`MAX_SPEECH_CHARS`] is passed on as its prefix (it is not a command either way), so a
+/// megabyte string is not copied into every warning about it.
 pub fn speech_event(msg: &RosString) -> Event {
-    Event::Speech { text: msg.data.clone() }
+    Event::Speech { text: cowork_ros::text_prefix(&msg.data, MAX_SPEECH_CHARS).into_owned() }
 }
 
 /// `ActionEvent::KIND_*` / `ActionSegment::KIND_*` → action kind.
@@ -315,7 +320,14 @@ impl Pacer {
     }
 }
 
-/// Logs a warning unless the same text was logged less than [`WARNING_REPEAT_S`] ago.
+/// Distinct warning texts remembered by [`WarnLimiter`].
+const MAX_WARNING_KINDS: usize = 256;
+/// Characters of a warning that are logged and that tell warnings apart.
+const MAX_WARNING_CHARS: usize = 300;
+
+/// Logs a warning unless the same text was logged less than [`WARNING_REPEAT_S`] ago. Bounded
+/// whatever a peer sends: texts are cut to [`MAX_WARNING_CHARS`], and at most
+/// [`MAX_WARNING_KINDS`] are remembered (the oldest is forgotten), so each call costs O(kinds).
 #[derive(Debug, Default)]
 struct WarnLimiter {
     last: HashMap<String, (Instant, u64)>,
@@ -324,8 +336,15 @@ struct WarnLimiter {
 impl WarnLimiter {
     fn warn(&mut self, text: &str) {
         let now = Instant::now();
-        if self.last.len() > 256 {
+        let text = cowork_ros::text_prefix(text, MAX_WARNING_CHARS);
+        let text = text.as_ref();
+        if self.last.len() >= MAX_WARNING_KINDS && !self.last.contains_key(text) {
             self.last.retain(|_, (t, _)| now.duration_since(*t).as_secs_f64() < WARNING_REPEAT_S);
+            if self.last.len() >= MAX_WARNING_KINDS
+                && let Some(oldest) = self.last.iter().min_by_key(|(_, (t, _))| *t).map(|(k, _)| k.clone())
+            {
+                self.last.remove(&oldest);
+            }
         }
         match self.last.get_mut(text) {
             Some((t, suppressed)) if now.duration_since(*t).as_secs_f64() < WARNING_REPEAT_S => *suppressed += 1,
@@ -571,7 +590,7 @@ pub fn run(mut node: RosNode, supervisor: Supervisor, options: &RunOptions) -> R
         let now_s = now.to_secs_f64();
         if !ticks.due(now_s) {
             let wait = if params.use_sim_time { 0.001f64.min(params.tick_period_s()) } else { ticks.wait_s(now_s) };
-            std::thread::sleep(Duration::from_secs_f64(wait.max(50e-6)));
+            std::thread::sleep(cowork_ros::duration_s(wait.max(50e-6)));
             continue;
         }
         // Stimuli are taken right before the tick that answers them.
@@ -645,4 +664,29 @@ pub fn run(mut node: RosNode, supervisor: Supervisor, options: &RunOptions) -> R
         sn.warnings()
     );
     Ok(sn.into_supervisor())
+}
+
+#[cfg(test)]
+mod bound_tests {
+    use super::*;
+
+    /// A flood of distinct (and huge) warnings keeps the limiter at its bound instead of
+    /// growing (and rescanning) without end.
+    #[test]
+    fn the_warning_limiter_stays_bounded_under_a_flood() {
+        let mut l = WarnLimiter::default();
+        let big = "x".repeat(100_000);
+        for i in 0..5_000 {
+            l.warn(&format!("unknown speech word {i} {big}"));
+        }
+        assert!(l.last.len() <= MAX_WARNING_KINDS, "{}", l.last.len());
+        assert!(l.last.keys().all(|k| k.len() < 2 * MAX_WARNING_CHARS), "keys are prefixes");
+    }
+
+    #[test]
+    fn a_megabyte_speech_command_becomes_a_short_event() {
+        let msg = RosString { data: "teach ".repeat(200_000) };
+        let Event::Speech { text } = speech_event(&msg) else { panic!("a speech event") };
+        assert!(text.len() < 4 * MAX_SPEECH_CHARS, "{}", text.len());
+    }
 }

@@ -277,11 +277,11 @@ pub fn rt_loop(
         match clock {
             Clock::Wall => {
                 k += 1;
-                let deadline = start + Duration::from_secs_f64(k as f64 * period);
+                let deadline = start + cowork_ros::duration_s(k as f64 * period);
                 let now = Instant::now();
                 if deadline > now {
                     std::thread::sleep(deadline - now);
-                } else if now - deadline > Duration::from_secs_f64(10.0 * period) {
+                } else if now - deadline > cowork_ros::duration_s(10.0 * period) {
                     // Overrun (suspended process): resynchronise instead of bursting.
                     k = ((now - start).as_secs_f64() / period) as u64;
                 }
@@ -602,7 +602,7 @@ fn serve(
     io: ServeIo<'_>,
 ) -> Result<()> {
     let started = Instant::now();
-    let status_every = Duration::from_secs_f64(1.0 / params.status_rate_hz);
+    let status_every = cowork_ros::duration_s(1.0 / params.status_rate_hz);
     let mut last_status: Option<(u32, u8, String)> = None;
     let mut last_status_at = Instant::now();
     // The command that was aborted (id, reason): its statuses read ABORTED while it is current.

@@ -47,7 +47,7 @@ pub struct RateLimitedWarnings {
 impl RateLimitedWarnings {
     /// A limiter with `period_s` seconds between two warnings of the same kind.
     pub fn new(period_s: f64) -> Self {
-        Self { period: Duration::from_secs_f64(period_s), last: HashMap::new() }
+        Self { period: cowork_ros::duration_s(period_s), last: HashMap::new() }
     }
 
     /// Logs `skip` unless one of its kind was logged within the period; returns whether it

@@ -112,7 +112,7 @@ pub fn run(mut node: RosNode, fded: FdedNode, options: &RunOptions) -> Result<Ru
 /// The worker: newest frame in, fDED, results out, until the inbox closes.
 fn worker(mut fded: FdedNode, inbox: &Inbox, outputs: &Outputs) -> Result<RunSummary> {
     let mut warnings = RateLimitedWarnings::new(fded.params().warning_period_s);
-    let report = Duration::from_secs_f64(fded.params().report_period_s);
+    let report = cowork_ros::duration_s(fded.params().report_period_s);
     let mut last_report = Instant::now();
     let mut summary = RunSummary::default();
     let mut dropped_at_report = 0;

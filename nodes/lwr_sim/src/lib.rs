@@ -460,7 +460,7 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         }
         let sim_s = lwr.sim.time_ns() as f64 * 1e-9;
         if let Pacing::Rate(rate) = pacing {
-            let target = start + Duration::from_secs_f64(sim_s / rate);
+            let target = start + cowork_ros::duration_s(sim_s / rate);
             let now = Instant::now();
             if target > now {
                 std::thread::sleep(target - now);

@@ -3,7 +3,6 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use anyhow::{Context, Result, bail};
 use clap::{Subcommand, ValueEnum};
@@ -421,7 +420,7 @@ pub fn bench(a: BenchFdedArgs) -> Result<()> {
     let opts = bench::TablesOptions {
         reps: a.reps,
         threads: a.threads,
-        budget: Duration::from_secs_f64(a.budget.max(0.1)),
+        budget: cowork_ros::duration_s(a.budget.max(0.1)),
         quick: a.quick,
     };
     let mut stdout = std::io::stdout().lock();

@@ -42,7 +42,7 @@ pub fn run(args: SayArgs) -> Result<()> {
     }
     let mut node = RosNode::new(&format!("cowork_say_{}", std::process::id()), &NodeConfig::default())?;
     let publisher = node.publisher::<RosString>("/speech_command", &qos::reliable())?;
-    let deadline = Instant::now() + Duration::from_secs_f64(args.wait);
+    let deadline = Instant::now() + cowork_ros::duration_s(args.wait);
     while publisher.subscription_count(&node) == 0 && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(20));
     }

@@ -92,7 +92,7 @@ pub fn run(cmd: TopicCommand) -> Result<()> {
             let value: serde_json::Value = serde_json::from_str(&json)
                 .with_context(|| format!("the message for {topic} is not valid JSON: {json}"))?;
             let mut node = RosNode::new(&format!("cowork_pub_{}", std::process::id()), &NodeConfig::default())?;
-            let period = Duration::from_secs_f64(1.0 / rate);
+            let period = cowork_ros::duration_s(1.0 / rate);
             with_message_type!(type_name.as_str(), T => publish::<T>(&mut node, &topic, value, count, period, wait))
                 .with_context(|| format!("{type_name} is not a type cowork knows (see `cowork topic list`)"))?
         }
@@ -129,7 +129,7 @@ fn publish<T: RosMessage>(
     let msg: T = serde_json::from_value(value)
         .with_context(|| format!("the JSON does not fit {} (fields: {})", T::type_name(), serde_json::to_string(&T::default()).unwrap_or_default()))?;
     let publisher = node.publisher::<T>(topic, &qos::reliable())?;
-    let deadline = Instant::now() + Duration::from_secs_f64(wait);
+    let deadline = Instant::now() + cowork_ros::duration_s(wait);
     while publisher.subscription_count(node) == 0 && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(20));
     }
@@ -153,7 +153,7 @@ fn discover(node: &RosNode, wait: f64, done: impl Fn(&[TopicInfo]) -> bool) -> R
     if !(wait.is_finite() && wait >= 0.0) {
         bail!("--wait {wait}: must be a non-negative number of seconds");
     }
-    let deadline = Instant::now() + Duration::from_secs_f64(wait);
+    let deadline = Instant::now() + cowork_ros::duration_s(wait);
     loop {
         let topics: Vec<TopicInfo> = node
             .discovered_topics()

@@ -70,9 +70,9 @@ impl PlayOptions {
             reason: reason.to_owned(),
         };
         if let Rate::Factor(r) = self.rate
-            && !(r.is_finite() && r > 0.0)
+            && !(r.is_finite() && (1e-6..=1e6).contains(&r))
         {
-            return Err(bad("rate", r, "must be a finite number > 0"));
+            return Err(bad("rate", r, "must be in [1e-6, 1e6] (or as fast as possible)"));
         }
         if !(self.start_offset_s.is_finite() && self.start_offset_s >= 0.0) {
             return Err(bad("start", self.start_offset_s, "must be a finite number ≥ 0 s"));
@@ -107,7 +107,9 @@ impl Schedule {
             Rate::Max => Duration::ZERO,
             Rate::Factor(r) => {
                 let bag = t_ns.saturating_sub(self.origin_ns) as f64 * 1e-9;
-                loop_base + Duration::from_secs_f64(bag / r)
+                // Saturating: an extreme rate must not panic the replay (the options bound it).
+                let wall = Duration::try_from_secs_f64(bag / r).unwrap_or(Duration::MAX);
+                loop_base.saturating_add(wall)
             }
         }
     }

@@ -171,6 +171,21 @@ impl ControllerConfig {
             e > 0.0 && e < 1.0,
             "must be in (0, 1)",
         )?;
+        // NaN here used to pass and silently switch avoidance off.
+        let m = &c.modulation;
+        check(
+            "modulation.full_distance",
+            m.full_distance,
+            m.full_distance >= 0.0,
+            "must be ≥ 0 m",
+        )?;
+        if !(m.influence_distance > m.full_distance) {
+            return Err(Error::Config {
+                field: "modulation.influence_distance",
+                value: m.influence_distance,
+                reason: "must exceed modulation.full_distance (m; .inf for no fading)",
+            });
+        }
         let x = &c.escape;
         check(
             "escape.speed_threshold",

@@ -220,3 +220,27 @@ fn config_yaml_round_trip_and_unknown_fields() {
     let err = serde_yaml_ng::from_str::<ControllerConfig>("stale_after: 0.05\n").expect_err("typo");
     assert!(err.to_string().contains("stale_after"), "{err}");
 }
+
+/// A NaN (or inverted) modulation distance used to pass validation and switch avoidance off
+/// without a word; every such configuration is refused, naming the field.
+#[test]
+fn nan_or_inverted_modulation_distances_are_refused() {
+    for (field, set) in [
+        ("modulation.full_distance", (|c: &mut ControllerConfig| c.modulation.full_distance = f64::NAN) as fn(&mut ControllerConfig)),
+        ("modulation.full_distance", |c| c.modulation.full_distance = -0.1),
+        ("modulation.influence_distance", |c| c.modulation.influence_distance = f64::NAN),
+        ("modulation.influence_distance", |c| c.modulation.influence_distance = 0.2),
+        ("future_tolerance_s", |c| c.future_tolerance_s = f64::NAN),
+        ("future_tolerance_s", |c| c.future_tolerance_s = 1.0),
+    ] {
+        let mut cfg = ControllerConfig::default();
+        set(&mut cfg);
+        let e = cfg.validate().expect_err(field);
+        assert!(e.to_string().contains(field), "{field}: {e}");
+    }
+    let unbounded = ControllerConfig {
+        modulation: cowork_ds::ModulationConfig { influence_distance: f64::INFINITY, ..Default::default() },
+        ..ControllerConfig::default()
+    };
+    unbounded.validate().expect("an infinite influence distance (the thesis's eq. 5.6 everywhere) is valid");
+}

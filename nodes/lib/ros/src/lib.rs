@@ -59,3 +59,56 @@ pub fn start_node(name: &str, use_sim_time: bool, duration_s: Option<f64>) -> an
     shutdown::install();
     RosNode::new(name, &NodeConfig { use_sim_time, ..NodeConfig::default() })
 }
+
+/// `s` seconds as a [`std::time::Duration`] that never panics: NaN and negative values give
+/// zero, values beyond 100 years (or infinite) give 100 years. `Duration::from_secs_f64`
+/// panics on all of these, and a finite but extreme parameter (`1e20 s`, `--rate 1e-300`)
+/// must not crash a node.
+pub fn duration_s(s: f64) -> std::time::Duration {
+    const CAP_S: f64 = 100.0 * 365.25 * 86_400.0;
+    if s.is_nan() || s <= 0.0 {
+        std::time::Duration::ZERO
+    } else {
+        std::time::Duration::from_secs_f64(s.min(CAP_S))
+    }
+}
+
+#[cfg(test)]
+mod duration_tests {
+    use super::duration_s;
+    use std::time::Duration;
+
+    #[test]
+    fn extreme_values_saturate_instead_of_panicking() {
+        assert_eq!(duration_s(f64::NAN), Duration::ZERO);
+        assert_eq!(duration_s(-1.0), Duration::ZERO);
+        assert_eq!(duration_s(0.25), Duration::from_millis(250));
+        assert_eq!(duration_s(1e20), duration_s(f64::INFINITY));
+        assert!(duration_s(1.0 / 1e-300) > Duration::from_secs(3_000_000_000));
+        let _ = std::time::Instant::now() + duration_s(1e300);
+    }
+}
+
+/// At most `max_chars` characters of peer-supplied `text`, for logs and warnings: a longer
+/// text is cut on a character boundary and marked with its full length in bytes, so a 1 MB
+/// speech string is never copied into a warning.
+pub fn text_prefix(text: &str, max_chars: usize) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(max_chars) {
+        None => std::borrow::Cow::Borrowed(text),
+        Some((cut, _)) => std::borrow::Cow::Owned(format!("{}… ({} bytes)", &text[..cut], text.len())),
+    }
+}
+
+#[cfg(test)]
+mod text_prefix_tests {
+    use super::text_prefix;
+
+    #[test]
+    fn long_texts_are_cut_on_a_character_boundary() {
+        assert_eq!(text_prefix("teach", 8), "teach");
+        let long = "é".repeat(1_000_000);
+        let cut = text_prefix(&long, 10);
+        assert!(cut.starts_with(&"é".repeat(10)) && cut.ends_with("(2000000 bytes)"), "{cut}");
+        assert!(cut.len() < 64);
+    }
+}

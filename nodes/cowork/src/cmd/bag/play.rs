@@ -60,7 +60,7 @@ pub struct PlayArgs {
 /// Waits until every publisher's topic has a subscriber in another participant (discovered,
 /// so matched) or `limit` seconds pass; names the topics still without one.
 fn wait_for_readers(node: &RosNode, publishers: &BTreeMap<String, RawPublisher>, limit: f64) {
-    let until = std::time::Instant::now() + Duration::from_secs_f64(limit);
+    let until = std::time::Instant::now() + cowork_ros::duration_s(limit);
     loop {
         let missing: Vec<&str> = publishers.keys().filter(|t| node.remote_reader_count(t) == 0).map(String::as_str).collect();
         if missing.is_empty() {
@@ -330,7 +330,7 @@ pub fn replay(reader: &BagReader, args: &PlayArgs, node: &mut RosNode) -> Result
     } else {
         None
     };
-    std::thread::sleep(Duration::from_secs_f64(args.delay));
+    std::thread::sleep(cowork_ros::duration_s(args.delay));
     if let Some(limit) = args.wait_readers {
         wait_for_readers(node, &publishers, limit);
     }

@@ -112,8 +112,8 @@ pub fn run(args: &RecordArgs) -> Result<()> {
     let mut recorded: BTreeMap<String, Recorded> = BTreeMap::new();
     let mut warned: BTreeSet<String> = BTreeSet::new();
     let start = Instant::now();
-    let end = args.duration.map(|d| start + Duration::from_secs_f64(d));
-    let interval = Duration::from_secs_f64(args.discovery_interval);
+    let end = args.duration.map(|d| start + cowork_ros::duration_s(d));
+    let interval = cowork_ros::duration_s(args.discovery_interval);
     let mut next_discovery = start;
     tracing::info!(
         "recording {} to {} (Ctrl-C to stop)",
