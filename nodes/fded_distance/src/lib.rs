@@ -43,7 +43,7 @@ mod node;
 mod params;
 mod run;
 
-pub use node::{FdedNode, RateLimitedWarnings, Skip, isometry};
+pub use node::{FdedNode, MAX_CAMERA_FRAMES, RateLimitedWarnings, Skip, isometry};
 pub use params::Params;
 pub use run::{RunOptions, RunSummary, run};
 

@@ -22,6 +22,9 @@ use crate::{TOPIC_CAMERA_INFO, TOPIC_DEPTH, TOPIC_JOINT_STATES, TOPIC_TF_STATIC}
 
 /// Joint states remembered for matching frames by stamp (2 s of a 1 kHz publisher).
 const JOINT_HISTORY: usize = 2048;
+/// Camera poses remembered from `/tf_static` (distinct child frames): a peer publishing new
+/// frame names cannot grow the node without bound.
+pub const MAX_CAMERA_FRAMES: usize = 64;
 
 /// Why a frame (or a message) was not used. The text is the warning logged, naming the topic
 /// and the reason; `kind` is the key of the rate limiter.
@@ -232,23 +235,43 @@ impl FdedNode {
     /// `/tf_static`: remembers every transform from the base frame (camera poses by child frame).
     pub fn on_tf_static(&mut self, msg: &TFMessage) -> Result<(), Skip> {
         let mut bad = None;
+        let mut full = None;
         for t in &msg.transforms {
             if t.header.frame_id.trim_start_matches('/') != self.base_frame {
                 continue;
             }
+            let child = t.child_frame_id.trim_start_matches('/');
             match isometry(t) {
                 Some(pose) => {
-                    self.camera_from_tf.insert(t.child_frame_id.trim_start_matches('/').to_owned(), pose);
+                    if let Some(p) = self.camera_from_tf.get_mut(child) {
+                        *p = pose;
+                    } else if self.camera_from_tf.len() < MAX_CAMERA_FRAMES {
+                        self.camera_from_tf.insert(child.to_owned(), pose);
+                    } else {
+                        full = Some(child);
+                    }
                 }
-                None => bad = Some(t.child_frame_id.clone()),
+                None => bad = Some(child),
             }
         }
-        match bad {
-            Some(child) => Err(skip(
+        match (bad, full) {
+            (Some(child), _) => Err(skip(
                 "tf_static",
-                format!("{TOPIC_TF_STATIC}: transform {} -> {child} ignored: not a finite rigid transform", self.base_frame),
+                format!(
+                    "{TOPIC_TF_STATIC}: transform {} -> {} ignored: not a finite rigid transform",
+                    self.base_frame,
+                    cowork_ros::text_prefix(child, 80)
+                ),
             )),
-            None => Ok(()),
+            (None, Some(child)) => Err(skip(
+                "tf_static",
+                format!(
+                    "{TOPIC_TF_STATIC}: transform {} -> {} ignored: already {MAX_CAMERA_FRAMES} frames known",
+                    self.base_frame,
+                    cowork_ros::text_prefix(child, 80)
+                ),
+            )),
+            (None, None) => Ok(()),
         }
     }
 

@@ -396,3 +396,25 @@ fn over_dds_beside_lwr_sim() {
         if min.min_index >= 0 { format!("{:.4} m ({})", min.links[min.min_index as usize].distance, min.links[min.min_index as usize].link_name) } else { "none".into() },
     );
 }
+
+/// A flood of `/tf_static` child frames stops at the bound with a warning; known frames keep
+/// updating and the real camera keeps working.
+#[test]
+fn camera_frames_from_tf_static_are_bounded() {
+    let model = model();
+    let (cam, _) = kitchen_camera();
+    let mut node = FdedNode::new(model.clone(), params()).expect("node");
+    let base = model.link_names()[0].clone();
+    node.on_tf_static(&tf_static(&base, &cam)).expect("the camera");
+    let mut refused = 0;
+    for i in 0..1000 {
+        let mut m = tf_static(&base, &cam);
+        m.transforms[0].child_frame_id = format!("stranger_{i}");
+        if let Err(s) = node.on_tf_static(&m) {
+            assert!(s.message.contains("already 64 frames known"), "{}", s.message);
+            refused += 1;
+        }
+    }
+    assert_eq!(refused, 1000 - (fded_distance::MAX_CAMERA_FRAMES - 1));
+    node.on_tf_static(&tf_static(&base, &cam)).expect("a known frame still updates");
+}
