@@ -47,7 +47,7 @@ impl ChannelInfo {
         let known = find_type(&type_name);
         let schema_mismatch = match known {
             Some(info) if encoding == "ros2msg" => {
-                schema::first_difference(&(info.definition)(), &definition)
+                schema::first_difference(&type_name, &(info.definition)(), &definition)
             }
             _ => None,
         };
