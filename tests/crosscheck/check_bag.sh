@@ -12,7 +12,7 @@
 #      messages per topic with equal contents and the original spacing in time;
 #  (e) rosbag2 directories written by `rosbags` with its Humble and Jazzy type stores
 #      (CameraInfo, TFMessage, 32FC1 Image, JointState; nested types spelled in full, no
-#      default values) decode in cowork_bag with every value equal, `cowork bag info` reports no
+#      default values), given as directories, decode in cowork_bag with every value equal, `cowork bag info` reports no
 #      schema difference, and `cowork fded run` finds the depth frames; a CameraInfo whose
 #      RegionOfInterest has another layout is refused with the type and field named.
 set -euo pipefail
@@ -56,11 +56,12 @@ sed 's/^/  /' "$work/record.log"
 echo "(e) rosbag2 directories written by rosbags (Humble and Jazzy type stores)"
 for store in ros2_humble ros2_jazzy; do
   "$VENV/bin/python" tests/crosscheck/check_bag_rosbags.py write "$work/$store" "$store" "$work/$store.jsonl"
-  "$target/release/examples/bag_to_json" "$work/$store"/*.mcap > "$work/$store.got.jsonl"
+  # The directory itself, as ros2 bag takes it (its one storage file is read).
+  "$target/release/examples/bag_to_json" "$work/$store" > "$work/$store.got.jsonl"
   "$VENV/bin/python" tests/crosscheck/check_bag.py compare "$work/$store.jsonl" "$work/$store.got.jsonl"
-  "$target/release/cowork" bag info "$work/$store"/*.mcap > "$work/$store.info" 2>&1 || { cat "$work/$store.info"; exit 1; }
+  "$target/release/cowork" bag info "$work/$store" > "$work/$store.info" 2>&1 || { cat "$work/$store.info"; exit 1; }
   if grep -qi "differs" "$work/$store.info"; then echo "FAIL: cowork bag info reports a schema difference"; cat "$work/$store.info"; exit 1; fi
-  "$target/release/cowork" fded run "$work/$store"/*.mcap --backend cpu -o "$work/$store.fded.csv" > "$work/$store.fded.log" 2>&1 \
+  "$target/release/cowork" fded run "$work/$store" --backend cpu -o "$work/$store.fded.csv" > "$work/$store.fded.log" 2>&1 \
     || { echo "FAIL: cowork fded run on the rosbags bag"; cat "$work/$store.fded.log"; exit 1; }
   frames=$(( $(wc -l < "$work/$store.fded.csv") - 1 ))
   [[ $frames -ge 1 ]] || { echo "FAIL: no depth frame computed from the rosbags bag"; cat "$work/$store.fded.log"; exit 1; }

@@ -22,6 +22,14 @@ pub enum BagError {
         /// The OS error.
         source: std::io::Error,
     },
+    /// A rosbag2 directory (`metadata.yaml` + storage files) that cannot be read as one bag.
+    #[error("{}: rosbag2 directory: {reason}", path.display())]
+    BagDirectory {
+        /// The directory.
+        path: PathBuf,
+        /// What is wrong (no storage file, several of them, an unreadable metadata.yaml).
+        reason: String,
+    },
     /// The file does not start with the MCAP magic bytes.
     #[error("{}: not an MCAP file (no MCAP magic at byte offset 0)", path.display())]
     NotMcap {

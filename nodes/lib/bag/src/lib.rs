@@ -52,6 +52,6 @@ mod write;
 pub use check::{GRAPH_TOPICS, TopicCheck, Verdict, check_bag, check_message, graph_topic_type};
 pub use error::{BagError, Result};
 pub use image::{bytes_per_pixel, check_image};
-pub use read::{BagInfo, BagReader, ChannelInfo, Messages, RawMessage, TopicInfo};
+pub use read::{BagInfo, BagReader, ChannelInfo, Messages, RawMessage, TopicInfo, storage_file};
 pub use play::{PlayItem, PlayOptions, Player, Rate, Schedule};
 pub use write::{BagWriter, ChannelId, WriteSummary};

@@ -152,6 +152,46 @@ struct Segment {
     times: Option<(u64, u64)>,
 }
 
+/// The MCAP file to read for `path`: `path` itself, or for a rosbag2 directory the one storage
+/// file its `metadata.yaml` lists under `relative_file_paths` (else the one `*.mcap` file in
+/// it). A directory split into several storage files is refused for now, naming them.
+pub fn storage_file(path: &Path) -> Result<PathBuf> {
+    if !path.is_dir() {
+        return Ok(path.to_path_buf());
+    }
+    let bad = |reason: String| BagError::BagDirectory { path: path.to_path_buf(), reason };
+    let metadata = path.join("metadata.yaml");
+    let mut files: Vec<PathBuf> = if metadata.is_file() {
+        let text = std::fs::read_to_string(&metadata).map_err(|e| bad(format!("metadata.yaml: {e}")))?;
+        let yaml: serde_yaml_ng::Value =
+            serde_yaml_ng::from_str(&text).map_err(|e| bad(format!("metadata.yaml: {e}")))?;
+        yaml.get("rosbag2_bagfile_information")
+            .and_then(|i| i.get("relative_file_paths"))
+            .and_then(|p| p.as_sequence())
+            .map(|p| p.iter().filter_map(|f| f.as_str()).map(|f| path.join(f)).collect())
+            .unwrap_or_default()
+    } else {
+        Vec::new()
+    };
+    if files.is_empty() {
+        let entries = std::fs::read_dir(path).map_err(|e| bad(e.to_string()))?;
+        files = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+            .collect();
+        files.sort();
+    }
+    match files.as_slice() {
+        [one] => Ok(one.clone()),
+        [] => Err(bad("no .mcap storage file in it".into())),
+        many => Err(bad(format!(
+            "{} storage files ({}); only single-file bags are read so far",
+            many.len(),
+            many.iter().filter_map(|f| f.file_name()).map(|f| f.to_string_lossy()).collect::<Vec<_>>().join(", ")
+        ))),
+    }
+}
+
 /// Per-topic figures of [`BagInfo`].
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
 pub struct TopicInfo {
@@ -282,8 +322,10 @@ impl BagReader {
     }
 
     /// Opens `path`, tolerating damage after the MCAP magic: see [`damage`](Self::damage).
+    /// `path` may also be a rosbag2 directory (what `ros2 bag record` and `rosbags` write):
+    /// its storage file is read (see [`storage_file`]).
     pub fn open_recoverable(path: impl AsRef<Path>) -> Result<Self> {
-        let path = path.as_ref().to_path_buf();
+        let path = storage_file(path.as_ref())?;
         let data = std::fs::read(&path).map_err(|source| BagError::Io {
             path: path.clone(),
             source,

@@ -529,3 +529,35 @@ fn overlapping_chunks_are_merged_into_log_time_order() -> TestResult {
     assert_eq!(times, [1_000, 1_500, 2_000, 3_000, 4_000]);
     Ok(())
 }
+
+/// A rosbag2 directory (metadata.yaml + one MCAP file, as `ros2 bag record` and `rosbags`
+/// write it) opens as its storage file; an empty or split directory is refused, naming why.
+#[test]
+fn rosbag2_directories_open_their_storage_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let bag_dir = dir.path().join("run");
+    std::fs::create_dir(&bag_dir).expect("bag dir");
+    let empty = cowork_bag::BagReader::open(&bag_dir).expect_err("empty directory");
+    assert!(empty.to_string().contains("no .mcap storage file"), "{empty}");
+    let file = bag_dir.join("run_0.mcap");
+    let mut w = cowork_bag::BagWriter::create(&file).expect("create");
+    let ch = w.add_channel::<cowork_msgs::std_msgs::String>("/speech_command").expect("channel");
+    w.write(ch, 1_000, 1_000, &cowork_msgs::std_msgs::String { data: "teach".into() }).expect("write");
+    w.finish().expect("finish");
+    std::fs::write(
+        bag_dir.join("metadata.yaml"),
+        "rosbag2_bagfile_information:\n  version: 8\n  storage_identifier: mcap\n  relative_file_paths:\n    - run_0.mcap\n",
+    )
+    .expect("metadata");
+    let reader = cowork_bag::BagReader::open(&bag_dir).expect("directory opens");
+    assert_eq!(reader.path(), file.as_path());
+    assert_eq!(reader.info().message_count, 1);
+    std::fs::copy(&file, bag_dir.join("run_1.mcap")).expect("second file");
+    std::fs::write(
+        bag_dir.join("metadata.yaml"),
+        "rosbag2_bagfile_information:\n  relative_file_paths: [run_0.mcap, run_1.mcap]\n",
+    )
+    .expect("metadata");
+    let split = cowork_bag::BagReader::open(&bag_dir).expect_err("split bag");
+    assert!(split.to_string().contains("2 storage files (run_0.mcap, run_1.mcap)"), "{split}");
+}
