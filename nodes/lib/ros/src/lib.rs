@@ -30,11 +30,14 @@ pub mod shutdown;
 
 pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};
 
-/// Default log filter: our own `info`; RustDDS and ros2-client only when something is really
-/// wrong (they report normal discovery races, e.g. a matched count asked before the node's own
-/// writer is in its graph cache, as errors). `RUST_LOG` overrides it.
+/// Default log filter: our own `info`; ros2-client only when something is really wrong;
+/// RustDDS not at all: it reports normal events as errors (`leave_multicast_group: Cannot
+/// assign requested address` on loopback-only hosts, "Cannot remove Writer GUID" on exit,
+/// discovery races), which is noise in a user's terminal. Our own code reports every failure
+/// that matters (publish, subscribe, join). `RUST_LOG` overrides it, e.g.
+/// `RUST_LOG=info,rustdds=warn` brings RustDDS back.
 pub const DEFAULT_LOG_FILTER: &str =
-    "info,rustdds=error,ros2_client=error,ros2_client::node=off,ros2_client::distributions=off";
+    "info,rustdds=off,ros2_client=error,ros2_client::node=off,ros2_client::distributions=off";
 
 /// Sets up `tracing` logging to stderr, filtered by `RUST_LOG` (default [`DEFAULT_LOG_FILTER`]).
 pub fn init_logging() {
