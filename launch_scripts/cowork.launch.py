@@ -38,6 +38,15 @@ def generate_launch_description():
             ),
             node("lwr_sim", "--rate", rate, "--scene", scene),
             node("fded_distance", "--params", "config/fded_distance.yaml", "--use-sim-time"),
+            node("ds_controller", "--params", "config/ds_controller.yaml", "--use-sim-time"),
+            node(
+                "robot_manager",
+                "--params",
+                "config/robot_manager.yaml",
+                "--use-sim-time",
+                "--database-dir",
+                "out/primitives",
+            ),
             node("attentional_supervisor", "--ltm", "config/tasks/kitchen.schema", "--task", "pourDrink"),
         ]
     )
