@@ -38,6 +38,7 @@ def generate_launch_description():
             ),
             node("lwr_sim", "--rate", rate, "--scene", scene),
             node("fded_distance", "--params", "config/fded_distance.yaml", "--use-sim-time"),
+            node("human_observer", "--params", "config/human_observer.yaml", "--use-sim-time"),
             node("ds_controller", "--params", "config/ds_controller.yaml", "--use-sim-time"),
             node(
                 "robot_manager",

@@ -25,7 +25,7 @@ while [[ $# -gt 0 ]]; do
 done
 
 bin=target/release
-for b in lwr_sim fded_distance attentional_supervisor ds_controller robot_manager; do
+for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controller robot_manager; do
   [[ -x $bin/$b ]] || { echo "graph.sh: $bin/$b missing; run: cargo build --release --bins" >&2; exit 1; }
 done
 mkdir -p "$logs"
@@ -58,6 +58,8 @@ trap stop_all INT TERM EXIT
 start lwr_sim $bin/lwr_sim --scene "$scene" "${rate_args[@]}" "${duration_args[@]}"
 # fDED distances (wgpu when a Vulkan adapter exists, else CPU; COWORK_FDED_BACKEND=cpu|gpu forces).
 start fded_distance $bin/fded_distance --params config/fded_distance.yaml --use-sim-time
+# The person near the robot: /human/state (far / interaction, alpha_h, stop), /human/gesture.
+start human_observer $bin/human_observer --params config/human_observer.yaml --use-sim-time
 # Reactive DS controller: /motion/command -> /lwr/joint_velocity_command (holds without fresh inputs).
 start ds_controller $bin/ds_controller --params config/ds_controller.yaml --use-sim-time
 # Robot manager: teaching (segments, primitive database in out/primitives), execution of the

@@ -117,26 +117,81 @@ pub fn non_gesture_stream(seed: u64, duration_s: f64, sensor: &SensorConfig) -> 
 pub fn learn(streams: &[&Stream], config: LearnConfig) -> Result<GestureModel> {
     let mut learner = Learner::new(config)?;
     let mut labels = Vec::new();
-    let mut offset = 0.0;
-    for s in streams {
-        // Streams are laid one after the other on one clock so that labels stay apart.
+    let mut end = 0.0f64;
+    for (k, s) in streams.iter().enumerate() {
+        // Streams are laid one after the other on one clock (10 s apart) and their person ids
+        // kept apart, so that labels and windows of different streams never mix.
+        let first = s.frames.iter().map(|m| m.header.stamp.to_secs_f64()).fold(f64::INFINITY, f64::min);
+        let offset = if first.is_finite() { end + 10.0 - first } else { end + 10.0 };
+        let person = |p: u32| p.wrapping_add((k as u32).wrapping_mul(1_000_003));
         for m in &s.frames {
             let Ok(f) = check_skeleton(m, "lwr_base_link", -0.75) else { continue };
-            let mut sample = Sample::from_pose(&f.pose, f.stamp + offset, !m.velocities.is_empty());
-            sample.stamp = f.stamp + offset;
-            learner.push(m.person_id.wrapping_add((offset as u32).wrapping_mul(7919)), sample)?;
+            learner.push(person(m.person_id), Sample::from_pose(&f.pose, f.stamp + offset, !m.velocities.is_empty()))?;
+            end = end.max(f.stamp + offset);
         }
         for l in &s.labels {
-            labels.push(Label {
-                start: l.start + offset,
-                end: l.end + offset,
-                person_id: l.person_id.map(|p| p.wrapping_add((offset as u32).wrapping_mul(7919))),
-                ..l.clone()
-            });
+            labels.push(Label { start: l.start + offset, end: l.end + offset, person_id: l.person_id.map(person), ..l.clone() });
         }
-        offset += s.duration_s.ceil() + 10.0;
     }
     learner.finish(&labels)
+}
+
+/// One frame of a hand track: the measurement, the truth and the filter's estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackRow {
+    /// Stamp, s.
+    pub stamp: f64,
+    /// Measured right-hand position, m.
+    pub measured: Point3<f64>,
+    /// Noise-free position, m.
+    pub truth: Point3<f64>,
+    /// Noise-free velocity, m/s.
+    pub truth_velocity: nalgebra::Vector3<f64>,
+    /// Filtered position, m.
+    pub filtered: Point3<f64>,
+    /// Filtered velocity, m/s.
+    pub filtered_velocity: nalgebra::Vector3<f64>,
+}
+
+/// The right hand of the first performer of the gesture set of `seed` measured by `sensor`,
+/// filtered by a [`ConstantVelocityKf`] with `config` (its `measurement_noise_m` as given).
+pub fn kalman_track(seed: u64, sensor: &SensorConfig, config: crate::KalmanConfig) -> Result<Vec<TrackRow>> {
+    let set = GestureSet::generate(seed, &GestureSetConfig { count: 3, ..Default::default() }, &Room::default()).map_err(people)?;
+    let timeline = set.timeline();
+    let id = set.instances.first().map_or(1, |i| i.person_id);
+    let mut kf = crate::ConstantVelocityKf::new(config)?;
+    let mut rows = Vec::new();
+    for m in Sampler::new(timeline, sensor.clone(), seed).map_err(people)? {
+        if m.person_id != id {
+            continue;
+        }
+        let t = m.header.stamp.to_secs_f64() - sensor.time_offset_s;
+        let Some((_, truth)) = timeline.poses_at(t).into_iter().find(|(p, _)| *p == id) else { continue };
+        let Some(z) = m.segment(Skeleton::SEGMENT_RIGHT_HAND) else { continue };
+        let z = Point3::new(z.position.x, z.position.y, z.position.z);
+        let e = kf.update(m.header.stamp.to_secs_f64(), &z)?;
+        let h = truth.segment(cowork_people::Segment::RightHand);
+        rows.push(TrackRow { stamp: e.stamp, measured: z, truth: h.position, truth_velocity: h.linear_velocity, filtered: e.position, filtered_velocity: e.velocity });
+    }
+    Ok(rows)
+}
+
+/// RMSE of a track (m, m/s): raw position, filtered position, raw velocity (central
+/// differences of the measurements), filtered velocity. The first `skip` rows (filter
+/// start-up) are left out.
+pub fn track_rmse(rows: &[TrackRow], skip: usize) -> [f64; 4] {
+    let mut sums = [0.0; 4];
+    let mut n = 0.0f64;
+    for i in skip.max(1)..rows.len().saturating_sub(1) {
+        let r = &rows[i];
+        let raw_v = (rows[i + 1].measured - rows[i - 1].measured) / (rows[i + 1].stamp - rows[i - 1].stamp);
+        sums[0] += (r.measured - r.truth).norm_squared();
+        sums[1] += (r.filtered - r.truth).norm_squared();
+        sums[2] += (raw_v - r.truth_velocity).norm_squared();
+        sums[3] += (r.filtered_velocity - r.truth_velocity).norm_squared();
+        n += 1.0;
+    }
+    sums.map(|s| (s / n.max(1.0)).sqrt())
 }
 
 /// A recognised gesture in an evaluation.

@@ -34,7 +34,7 @@ pub struct KalmanConfig {
 
 impl Default for KalmanConfig {
     fn default() -> Self {
-        Self { process_noise: 4.0, measurement_noise_m: 0.015, initial_velocity_std: 1.0 }
+        Self { process_noise: 1.0, measurement_noise_m: 0.015, initial_velocity_std: 1.0 }
     }
 }
 

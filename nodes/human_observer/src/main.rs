@@ -1,0 +1,59 @@
+//! `human_observer`: the person near the robot (thesis Sec. 5.1.3) as a ROS 2 node.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use cowork_observer::GestureModel;
+use cowork_robot::RobotModel;
+use human_observer::{ObserverNode, Params, RunOptions};
+
+/// Human observer: from `/human/skeleton`, `/joint_states` and `/speech_command`, the state of
+/// the person near the robot on `/human/state` (far / interaction, distance, filtered hand,
+/// α_h, stopped), recognised gestures on `/human/gesture`, markers on `/human/markers`.
+#[derive(Debug, Parser)]
+#[command(version)]
+struct Args {
+    /// ROS 2 parameter file with a `human_observer: ros__parameters:` block.
+    #[arg(long, default_value = "config/human_observer.yaml")]
+    params: PathBuf,
+    /// Robot description (overrides `urdf`).
+    #[arg(long)]
+    urdf: Option<PathBuf>,
+    /// Gesture model (overrides `gestures`; `""` for none).
+    #[arg(long)]
+    gestures: Option<String>,
+    /// Take time from `/clock` (overrides `use_sim_time: false`).
+    #[arg(long)]
+    use_sim_time: bool,
+    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
+    #[arg(long)]
+    duration: Option<f64>,
+}
+
+fn main() -> Result<()> {
+    cowork_ros::init_logging();
+    let args = Args::parse();
+    let place = args.params.display().to_string();
+    let mut params: Params = cowork_ros::params::load(&args.params, "human_observer")?;
+    params.use_sim_time |= args.use_sim_time;
+    if let Some(u) = &args.urdf {
+        params.urdf = u.display().to_string();
+    }
+    if let Some(g) = &args.gestures {
+        params.gestures.clone_from(g);
+    }
+    params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
+    let model = RobotModel::from_urdf_file(&params.urdf).with_context(|| format!("cannot load robot description {}", params.urdf))?;
+    let gestures = if params.gestures.is_empty() {
+        tracing::warn!("no gesture model (`gestures` is empty): gestures are not recognised");
+        None
+    } else {
+        Some(GestureModel::from_file(params.gestures.as_ref()).with_context(|| format!("cannot load the gesture model named by `gestures` in {place}"))?)
+    };
+    let use_sim_time = params.use_sim_time;
+    let observer = ObserverNode::new(model, params, gestures)?;
+    let node = cowork_ros::start_node("human_observer", use_sim_time, args.duration)?;
+    human_observer::run(node, observer, &RunOptions { duration_s: args.duration, stop: None })?;
+    Ok(())
+}
