@@ -27,6 +27,9 @@ enum Command {
     /// Inspect live topics over DDS (no ROS installation needed).
     #[command(subcommand)]
     Topic(cmd::topic::TopicCommand),
+    /// Robot manager's primitive database: list, show, rm; learn from a kinesthetic bag.
+    #[command(subcommand)]
+    Primitives(cmd::primitives::PrimitivesCommand),
     /// Attentional supervisor: run on an event script, show the working memory.
     #[command(subcommand)]
     Supervisor(cmd::supervisor::SupervisorCommand),
@@ -64,6 +67,7 @@ fn main() -> Result<()> {
         Command::Say(a) => cmd::say::run(a),
         Command::Topic(c) => cmd::topic::run(c),
         Command::Supervisor(c) => cmd::supervisor::run(c),
+        Command::Primitives(c) => cmd::primitives::run(c),
         Command::Learn(c) => cmd::learn::run(c),
         Command::Bag(c) => cmd::bag::run(c),
         Command::Fded(c) => cmd::fded::run(c),
