@@ -44,6 +44,8 @@ enum Command {
     Fded(cmd::fded::FdedCommand),
     /// Simulated DS-controller experiments of the thesis (Fig. 5.3–5.7, Sec. 5.1.3); prints JSON.
     Scenario(cmd::scenario::ScenarioArgs),
+    /// The human observer offline on a bag: recognised gestures and every /human/state as CSV.
+    Observe(cmd::observe::ObserveArgs),
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -57,6 +59,8 @@ enum BenchCommand {
     Fded(cmd::fded::BenchFdedArgs),
     /// DS controller step time and allocations.
     Control(cmd::bench_control::BenchControlArgs),
+    /// Gesture recognition on unseen people (30 and 120 Hz), false gestures, hand Kalman RMSE.
+    Gestures(cmd::observe::BenchGesturesArgs),
 }
 
 fn main() -> Result<()> {
@@ -75,5 +79,7 @@ fn main() -> Result<()> {
         Command::Bench(BenchCommand::Lasa(a)) => cmd::bench_lasa::run(a),
         Command::Bench(BenchCommand::Fded(a)) => cmd::fded::bench(a),
         Command::Bench(BenchCommand::Control(a)) => cmd::bench_control::run(a),
+        Command::Bench(BenchCommand::Gestures(a)) => cmd::observe::bench(a),
+        Command::Observe(a) => cmd::observe::observe(a),
     }
 }

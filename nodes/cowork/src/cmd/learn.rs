@@ -98,11 +98,15 @@ pub enum LearnCommand {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Gesture templates and rejection threshold from bags with `/human/skeleton` and
+    /// `/human/gesture_label` labels (the human observer's model).
+    Gestures(crate::cmd::observe::LearnGesturesArgs),
 }
 
 /// Runs one `cowork learn` subcommand.
 pub fn run(cmd: LearnCommand) -> Result<()> {
     match cmd {
+        LearnCommand::Gestures(a) => crate::cmd::observe::learn_gestures(a)?,
         LearnCommand::Fit {
             model,
             demos,

@@ -6,6 +6,7 @@ pub mod bench_control;
 pub mod bench_lasa;
 pub mod fded;
 pub mod learn;
+pub mod observe;
 pub mod primitives;
 pub mod robot;
 pub mod say;
