@@ -46,6 +46,10 @@ enum Command {
     Scenario(cmd::scenario::ScenarioArgs),
     /// The human observer offline on a bag: recognised gestures and every /human/state as CSV.
     Observe(cmd::observe::ObserveArgs),
+    /// Thesis experiments in the whole graph (node processes over DDS, sim clock); JSON, bags.
+    Experiment(cmd::experiment::ExperimentArgs),
+    /// Report (index.html + PNG plots) of recorded experiment runs.
+    Report(cmd::report::ReportArgs),
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -76,6 +80,8 @@ fn main() -> Result<()> {
         Command::Bag(c) => cmd::bag::run(c),
         Command::Fded(c) => cmd::fded::run(c),
         Command::Scenario(a) => cmd::scenario::run(a),
+        Command::Experiment(a) => cmd::experiment::run(a),
+        Command::Report(a) => cmd::report::run(a),
         Command::Bench(BenchCommand::Lasa(a)) => cmd::bench_lasa::run(a),
         Command::Bench(BenchCommand::Fded(a)) => cmd::fded::bench(a),
         Command::Bench(BenchCommand::Control(a)) => cmd::bench_control::run(a),

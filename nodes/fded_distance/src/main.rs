@@ -22,6 +22,9 @@ struct Args {
     /// `auto`, `cpu` or `gpu` (overrides `backend` in the parameter file).
     #[arg(long)]
     backend: Option<String>,
+    /// `fded` or `flacco` (overrides `method` in the parameter file).
+    #[arg(long)]
+    method: Option<String>,
     /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
     #[arg(long)]
     use_sim_time: bool,
@@ -41,6 +44,9 @@ fn main() -> Result<()> {
     }
     if let Some(b) = &args.backend {
         params.backend = b.clone();
+    }
+    if let Some(m) = &args.method {
+        params.method = m.clone();
     }
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     let model = RobotModel::from_urdf_file(&params.urdf)

@@ -6,7 +6,8 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use cowork_depth::{DepthImage, Intrinsics};
 use cowork_fded::gpu::{BACKEND_ENV, BackendRequest, FdedEngine};
-use cowork_fded::{FdedOutput, Frame};
+use cowork_fded::baseline::{Flacco, FlaccoHit, FlaccoParams};
+use cowork_fded::{Fded, FdedOutput, Frame};
 use cowork_msgs::geometry_msgs::{Point, TransformStamped, Vector3};
 use cowork_msgs::msg::{LinkDistance, LinkDistances};
 use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
@@ -89,6 +90,9 @@ pub struct FdedNode {
     link_names: Vec<String>,
     engine: Option<(Intrinsics, FdedEngine)>,
     out: Option<FdedOutput>,
+    /// `method: flacco`: the sphere method, the CPU pipeline whose robot removal it uses, and
+    /// its per-link result (built with the engine).
+    flacco: Option<(Flacco, Box<Fded>, Vec<Option<FlaccoHit>>)>,
     depth: DepthImage,
     /// (stamp s, joint positions rad), stamps non-decreasing.
     joints: VecDeque<(f64, [f64; DOF])>,
@@ -125,6 +129,7 @@ impl FdedNode {
             model,
             engine: None,
             out: None,
+            flacco: None,
             depth: DepthImage::default(),
             joints: VecDeque::with_capacity(JOINT_HISTORY),
             camera_from_tf: HashMap::new(),
@@ -187,6 +192,13 @@ impl FdedNode {
             engine.adapter_name().map(|a| format!(" ({a})")).unwrap_or_default()
         );
         self.out = Some(engine.new_output());
+        if self.params.method == "flacco" {
+            let cpu = Fded::new(&self.model, &k, self.params.fded.clone()).map_err(|e| {
+                skip("engine", format!("{TOPIC_CAMERA_INFO}: cannot build the Flacco baseline for a {}x{} camera: {e}", k.width, k.height))
+            })?;
+            tracing::info!("method flacco: Flacco et al.'s spheres (CPU) compute the distances");
+            self.flacco = Some((Flacco::new(&self.model, FlaccoParams::default()), Box::new(cpu), Vec::new()));
+        }
         self.engine = Some((k, engine));
         Ok(())
     }
@@ -339,8 +351,50 @@ impl FdedNode {
         let Some((_, engine)) = self.engine.as_mut() else {
             unreachable!("checked above");
         };
-        let out = self.out.get_or_insert_with(|| engine.new_output());
         let frame = Frame { stamp, depth: &self.depth, camera_pose: camera, joints: Some(&q) };
+        if let Some((flacco, cpu, hits)) = self.flacco.as_mut() {
+            let t0 = Instant::now();
+            flacco
+                .closest(cpu, &frame, hits)
+                .map_err(|e| skip("fded", format!("{TOPIC_DEPTH}: frame skipped: the Flacco baseline rejected it: {e}")))?;
+            let dt = t0.elapsed().as_secs_f64();
+            self.times.push(dt);
+            self.frames += 1;
+            let msg = &mut self.msg;
+            msg.header = Header { stamp: image.header.stamp, frame_id: self.base_frame.clone() };
+            msg.processing_time = dt;
+            "spheres".clone_into(&mut msg.backend);
+            msg.links.resize_with(hits.len(), LinkDistance::default);
+            let mut best: Option<(usize, f64)> = None;
+            for (i, (m, h)) in msg.links.iter_mut().zip(hits.iter()).enumerate() {
+                if m.link_name.is_empty() {
+                    m.link_name = self.link_names.get(i).cloned().unwrap_or_default();
+                }
+                m.obstacle_velocity = Vector3::default();
+                match h {
+                    Some(h) => {
+                        m.valid = true;
+                        m.distance = h.distance;
+                        m.robot_point = point(&h.robot_point.coords);
+                        m.obstacle_point = point(&h.obstacle_point.coords);
+                        m.normal = vector(&h.normal);
+                        if best.is_none_or(|(_, d)| h.distance < d) {
+                            best = Some((i, h.distance));
+                        }
+                    }
+                    None => {
+                        m.valid = false;
+                        m.distance = f64::INFINITY;
+                        m.robot_point = Point::default();
+                        m.obstacle_point = Point::default();
+                        m.normal = Vector3::default();
+                    }
+                }
+            }
+            msg.min_index = best.and_then(|(i, _)| i32::try_from(i).ok()).unwrap_or(-1);
+            return Ok(&self.msg);
+        }
+        let out = self.out.get_or_insert_with(|| engine.new_output());
         let t0 = Instant::now();
         engine
             .process(&frame, out)

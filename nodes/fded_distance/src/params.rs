@@ -14,6 +14,10 @@ pub struct Params {
     pub urdf: String,
     /// `auto`, `cpu` or `gpu` (`COWORK_FDED_BACKEND` overrides it).
     pub backend: String,
+    /// `fded` (thesis Sec. 5.1.2), or `flacco`: Flacco et al.'s sphere method on the same
+    /// robot-removed image, CPU, at its real cost — the Sec. 5.1.3 baseline (backend
+    /// `spheres`; no obstacle velocity).
+    pub method: String,
     /// Take time from `/clock` (only the log uses time; message stamps are copied).
     pub use_sim_time: bool,
     /// Camera optical frame pose in the base frame, used until `/tf_static` gives one.
@@ -42,6 +46,7 @@ impl Default for Params {
         Self {
             urdf: "config/robot/lwr4plus.urdf".into(),
             backend: "auto".into(),
+            method: "fded".into(),
             use_sim_time: false,
             camera_pose: Pose {
                 position: [1.9, 0.0, 0.9],
@@ -63,6 +68,9 @@ impl Params {
     /// Rejects NaN and out-of-range values; `place` names the parameter file.
     pub fn validate(&self, place: &str) -> Result<()> {
         self.backend_request(place)?;
+        if !matches!(self.method.as_str(), "fded" | "flacco") {
+            bail!("{place}: `method` = {:?} must be fded or flacco", self.method);
+        }
         for (name, v) in [
             ("max_joint_state_age_s", self.max_joint_state_age_s),
             ("report_period_s", self.report_period_s),

@@ -22,7 +22,7 @@ pub struct SimParams {
     /// The gripper grasps the nearest graspable object whose surface is at most this far from
     /// the tool point, m.
     pub grasp_reach_m: f64,
-    /// Released objects drop onto the table top below them.
+    /// Released objects drop onto the table top or the top of the object below them.
     pub drop_released_objects: bool,
 }
 

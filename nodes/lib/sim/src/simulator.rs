@@ -10,6 +10,9 @@ use crate::error::{CommandError, Result, SimError};
 use crate::params::SimParams;
 use crate::scene::{Scene, Shape};
 
+/// A released object sunk at most this far into another one (m) is put on top of it.
+const SUPPORT_TOLERANCE_M: f64 = 0.02;
+
 /// An external wrench (base frame) applied at the origin of a link, as a person pushing the arm.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Wrench {
@@ -59,12 +62,9 @@ impl ObjectState {
             .distance_to_point(&(self.pose * self.collider_offset), point, true)
     }
 
-    /// Lowest z of the object, m, base frame.
-    fn bottom_z(&self) -> f64 {
-        self.collider
-            .compute_aabb(&(self.pose * self.collider_offset))
-            .mins
-            .z
+    /// Axis-aligned bounding box of the object, base frame.
+    fn aabb(&self) -> parry3d_f64::bounding_volume::Aabb {
+        self.collider.compute_aabb(&(self.pose * self.collider_offset))
     }
 }
 
@@ -236,8 +236,31 @@ impl Simulator {
         let local = t.inverse() * Point3::from(self.objects[i].pose.translation.vector);
         let half = &self.scene.table.size;
         let over_table = local.x.abs() <= 0.5 * half[0] && local.y.abs() <= 0.5 * half[1];
-        let gap = self.objects[i].bottom_z() - top;
-        if over_table && gap > 0.0 {
+        if !over_table {
+            return;
+        }
+        // It lands on the highest support below its footprint: the table or the top of
+        // another object it overlaps in x-y (blocks stack).
+        let this = self.objects[i].aabb();
+        let bottom = this.mins.z;
+        let support = self
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(j, _)| *j != i)
+            .map(|(_, o)| o.aabb())
+            .filter(|b| {
+                b.mins.x < this.maxs.x
+                    && b.maxs.x > this.mins.x
+                    && b.mins.y < this.maxs.y
+                    && b.maxs.y > this.mins.y
+                    && b.maxs.z <= bottom + SUPPORT_TOLERANCE_M
+            })
+            .map(|b| b.maxs.z)
+            .fold(top, f64::max);
+        // Above its support it drops; sunk a little into a block below it, it rests on top.
+        let gap = bottom - support;
+        if gap > 0.0 || (gap < 0.0 && support > top) {
             self.objects[i].pose.translation.vector.z -= gap;
         }
     }

@@ -116,6 +116,33 @@ fn gripper_grasps_nearest_object_within_reach_and_carries_it() {
 }
 
 #[test]
+fn released_block_lands_on_the_block_below_it() {
+    let sc = Scene::from_file(&root().join("config/scenes/stacking.yaml")).expect("scene loads");
+    let tool = Simulator::new(model(), sc.clone(), SimParams::default()).unwrap().tool_pose().translation.vector;
+    assert!(tool.z > 0.15, "tool at z = {}", tool.z);
+    let place = |sc: &mut Scene, name: &str, p: [f64; 3]| {
+        sc.objects.iter_mut().find(|o| o.name == name).unwrap().pose.position = p;
+    };
+    let mut sc = sc;
+    // box1 at the tool point; box3 on the table 2 cm to the side of the tool (footprints overlap).
+    place(&mut sc, "box1", [tool.x, tool.y, tool.z]);
+    place(&mut sc, "box3", [tool.x + 0.02, tool.y, 0.03]);
+    let mut s = Simulator::new(model(), sc, SimParams::default()).unwrap();
+    let z = |s: &Simulator, name: &str| s.objects().iter().find(|o| o.name == name).unwrap().pose.translation.vector.z;
+    assert_eq!(s.command_gripper(true), Some("box1"));
+    s.command_gripper(false);
+    assert!((z(&s, "box1") - 0.09).abs() < 1e-9, "box1 centre at z = {} (on box3: 0.09)", z(&s, "box1"));
+    assert!((z(&s, "box3") - 0.03).abs() < 1e-12);
+    // Beside every other block it drops to the table.
+    let mut sc = Scene::from_file(&root().join("config/scenes/stacking.yaml")).unwrap();
+    place(&mut sc, "box1", [tool.x, tool.y, tool.z]);
+    let mut s = Simulator::new(model(), sc, SimParams::default()).unwrap();
+    assert_eq!(s.command_gripper(true), Some("box1"));
+    s.command_gripper(false);
+    assert!((z(&s, "box1") - 0.03).abs() < 1e-9, "box1 centre at z = {}", z(&s, "box1"));
+}
+
+#[test]
 fn wrench_moves_the_tool_along_the_force() {
     let mut s = sim();
     let p0 = s.tool_pose().translation.vector;

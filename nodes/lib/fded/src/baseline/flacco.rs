@@ -37,6 +37,19 @@ impl Default for FlaccoParams {
     }
 }
 
+/// The closest obstacle point of one link's spheres (base frame, m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FlaccoHit {
+    /// Sphere-surface distance (0 inside), m.
+    pub distance: f64,
+    /// Point of the sphere's surface towards the obstacle.
+    pub robot_point: Point3<f64>,
+    /// The obstacle point.
+    pub obstacle_point: Point3<f64>,
+    /// Unit normal from the obstacle point towards the sphere centre.
+    pub normal: Vector3<f64>,
+}
+
 /// The sphere model of the robot and the distance query.
 #[derive(Debug, Clone)]
 pub struct Flacco {
@@ -100,6 +113,28 @@ impl Flacco {
 
     /// [`distances`](Self::distances) on buffers `fded` has already prepared for `frame`.
     pub fn distances_prepared(&mut self, fded: &Fded, frame: &Frame<'_>, per_link: &mut Vec<Option<f64>>) {
+        self.query(fded, frame, per_link, None);
+    }
+
+    /// Like [`distances`](Self::distances), with the closest pair of each link for a
+    /// controller: `hits[link]` is `None` when no sphere of the link saw a point in its
+    /// surveillance region (no obstacle, not the default distance), else the sphere-surface
+    /// distance, the sphere's surface point towards the obstacle, the obstacle point and the
+    /// unit normal from the obstacle towards the robot (base frame, m).
+    pub fn closest(&mut self, fded: &mut Fded, frame: &Frame<'_>, hits: &mut Vec<Option<FlaccoHit>>) -> Result<()> {
+        fded.classify_full(frame)?;
+        let mut per_link = Vec::new();
+        self.query(fded, frame, &mut per_link, Some(hits));
+        Ok(())
+    }
+
+    fn query(
+        &mut self,
+        fded: &Fded,
+        frame: &Frame<'_>,
+        per_link: &mut Vec<Option<f64>>,
+        mut hits: Option<&mut Vec<Option<FlaccoHit>>>,
+    ) {
         let model = fded.model();
         let mut q = JointVector::zeros();
         if let Some(j) = frame.joints {
@@ -108,6 +143,11 @@ impl Flacco {
         model.forward_kinematics(&q, &mut self.poses);
         per_link.clear();
         per_link.resize(model.link_count(), None);
+        if let Some(h) = hits.as_deref_mut() {
+            h.clear();
+            h.resize(model.link_count(), None);
+        }
+        let base_from_cam = *frame.camera_pose;
         let cam_from_base = frame.camera_pose.inverse();
         let buf = fded.buffers();
         let k = fded.intrinsics();
@@ -117,6 +157,7 @@ impl Flacco {
         for &(link, centre) in &self.spheres {
             let c: Vector3<f64> = (cam_from_base * (self.poses.get(link) * centre)).coords;
             let mut best = f32::INFINITY;
+            let mut best_point = [0.0f32; 3];
             if c.z > 1e-3 {
                 // Pixel rectangle of the cube's projection (corners at z = c.z ± ρ, clipped).
                 let z_near = (c.z - rho).max(1e-3);
@@ -154,6 +195,9 @@ impl Flacco {
                         let q = dist2(&r, buf.ray_x[u as usize], ry, d, f32::INFINITY);
                         if q < best {
                             best = q;
+                            // The point dist2 measured to (the gray area raises it to the sphere's depth).
+                            let dd = if r[2] > d { r[2] } else { d };
+                            best_point = [buf.ray_x[u as usize] * dd, ry * dd, dd];
                         }
                     }
                 }
@@ -165,6 +209,21 @@ impl Flacco {
             };
             let slot = &mut per_link[link];
             *slot = Some(slot.map_or(dist, |s: f64| s.min(dist)));
+            if let Some(h) = hits.as_deref_mut()
+                && best.is_finite()
+                && h[link].is_none_or(|old| dist < old.distance)
+            {
+                let centre = base_from_cam * Point3::from(c);
+                let obstacle = base_from_cam * Point3::new(f64::from(best_point[0]), f64::from(best_point[1]), f64::from(best_point[2]));
+                let away = centre - obstacle;
+                let normal = if away.norm() > 1e-9 { away.normalize() } else { Vector3::z() };
+                h[link] = Some(FlaccoHit {
+                    distance: dist,
+                    robot_point: centre - normal * p.radius,
+                    obstacle_point: obstacle,
+                    normal,
+                });
+            }
         }
     }
 }

@@ -11,4 +11,4 @@ mod brute;
 mod flacco;
 
 pub use brute::brute_force;
-pub use flacco::{Flacco, FlaccoParams};
+pub use flacco::{Flacco, FlaccoHit, FlaccoParams};

@@ -1,0 +1,723 @@
+//! `cowork experiment NAME`: runs a thesis experiment in the whole graph. The runner owns the
+//! graph (node processes on a private DDS domain, sim clock), feeds the scripted people and
+//! the task script, judges from the simulated world and stops everything; descriptions,
+//! sequencing and judging are in `cowork_experiment`.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use cowork_experiment::judge::Subtask;
+use cowork_experiment::report::ReportTrial;
+use cowork_experiment::{
+    DistanceMethod, Experiment, Judge, Output, Progress, RunResult, Sequencer, Stats, TrialResult,
+};
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::msg::{
+    Gesture, HumanState, LinkDistances, MotionCommand, MotionStatus, Skeleton, WorldState,
+};
+use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::std_msgs::{Float64MultiArray, String as RosString};
+use cowork_people::MessageMeta;
+use cowork_robot::RobotModel;
+use cowork_ros::{NodeConfig, RosNode, qos, shutdown};
+use indicatif::{ProgressBar, ProgressStyle};
+
+/// Arguments of `cowork experiment`.
+#[derive(Debug, Args)]
+pub struct ExperimentArgs {
+    /// Experiment: stacking-hri.
+    pub name: String,
+    /// Trials (seeds seed, seed + 1, ...).
+    #[arg(long, default_value_t = 1)]
+    pub trials: u32,
+    /// Seed of the first trial.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Scene file instead of the experiment's own.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Robot–obstacle distances: fded or flacco (stacking-hri).
+    #[arg(long, default_value = "fded")]
+    pub distance: String,
+    /// Write the run as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Record every topic of each trial to DIR/<experiment>-<distance>-<seed>.mcap.
+    #[arg(long)]
+    pub record: Option<PathBuf>,
+    /// Write a report (index.html + PNG plots per trial) into DIR.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Simulated seconds per wall-clock second.
+    #[arg(long, default_value_t = 1.0, conflicts_with = "max")]
+    pub rate: f64,
+    /// Run the simulated clock as fast as possible.
+    #[arg(long)]
+    pub max: bool,
+    /// A trial still running after this many simulated seconds fails.
+    #[arg(long)]
+    pub time_limit: Option<f64>,
+    /// Node logs go to DIR/<experiment>-<distance>-<seed>/<node>.log.
+    #[arg(long, default_value = "out/experiments/logs")]
+    pub logs: PathBuf,
+    /// Directory of the node binaries.
+    #[arg(long, default_value = "target/release")]
+    pub bin_dir: PathBuf,
+    /// Wall-clock seconds to wait for every node to be up.
+    #[arg(long, default_value_t = 90.0)]
+    pub startup_timeout: f64,
+}
+
+/// One node process of the graph.
+struct Proc {
+    name: String,
+    child: Child,
+    log: PathBuf,
+}
+
+/// The graph of one trial; dropping it stops every process (INT, then KILL after 5 s).
+struct Graph {
+    procs: Vec<Proc>,
+}
+
+impl Graph {
+    fn spawn(
+        &mut self,
+        name: &str,
+        program: &Path,
+        args: &[String],
+        domain: u16,
+        logs: &Path,
+    ) -> Result<()> {
+        let log = logs.join(format!("{name}.log"));
+        let out = File::create(&log).with_context(|| format!("creating {}", log.display()))?;
+        let err = out.try_clone()?;
+        let child = Command::new(program)
+            .args(args)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .stdin(Stdio::null())
+            .stdout(out)
+            .stderr(err)
+            .spawn()
+            .with_context(|| format!("cannot start {name} ({})", program.display()))?;
+        self.procs.push(Proc {
+            name: name.to_owned(),
+            child,
+            log,
+        });
+        Ok(())
+    }
+
+    /// The first process that has exited, with its status and the last line of its log.
+    fn exited(&mut self) -> Option<String> {
+        for p in &mut self.procs {
+            if let Ok(Some(status)) = p.child.try_wait() {
+                let last = std::fs::read_to_string(&p.log)
+                    .ok()
+                    .and_then(|s| {
+                        s.lines()
+                            .rev()
+                            .find(|l| !l.trim().is_empty())
+                            .map(str::to_owned)
+                    })
+                    .unwrap_or_default();
+                return Some(format!(
+                    "{} exited ({status}); log {}: {last}",
+                    p.name,
+                    p.log.display()
+                ));
+            }
+        }
+        None
+    }
+
+    fn stop(&mut self) {
+        for p in &mut self.procs {
+            if matches!(p.child.try_wait(), Ok(None)) {
+                let pid = nix::unistd::Pid::from_raw(p.child.id() as i32);
+                let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT);
+            }
+        }
+        let deadline = Instant::now() + Duration::from_secs(5);
+        for p in &mut self.procs {
+            loop {
+                match p.child.try_wait() {
+                    Ok(Some(_)) | Err(_) => break,
+                    Ok(None) if Instant::now() >= deadline => {
+                        tracing::warn!("{} did not stop within 5 s; killing it", p.name);
+                        let _ = p.child.kill();
+                        let _ = p.child.wait();
+                        break;
+                    }
+                    Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+                }
+            }
+        }
+        self.procs.clear();
+    }
+}
+
+impl Drop for Graph {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+/// A DDS domain of our own for trial `k` (process id based, so parallel runs rarely meet).
+fn private_domain(k: u32) -> u16 {
+    120 + ((std::process::id().wrapping_mul(7).wrapping_add(k)) % 100) as u16
+}
+
+/// Runs the experiment and writes what was asked.
+pub fn run(args: ExperimentArgs) -> Result<()> {
+    if args.trials == 0 {
+        bail!("--trials must be at least 1");
+    }
+    if !args.max && !(args.rate.is_finite() && args.rate > 0.0) {
+        bail!("--rate {} must be > 0", args.rate);
+    }
+    let distance = DistanceMethod::parse(&args.distance)
+        .with_context(|| format!("--distance {:?}: must be fded or flacco", args.distance))?;
+    let root = PathBuf::from(".");
+    if !root.join("config/robot/lwr4plus.urdf").is_file() {
+        bail!("run from the repository root (config/robot/lwr4plus.urdf not found)");
+    }
+    // Build every trial first: a bad name, scene or option fails before anything starts.
+    let trials: Vec<Experiment> = (0..args.trials)
+        .map(|k| {
+            cowork_experiment::build(
+                &args.name,
+                &root,
+                &cowork_experiment::Options {
+                    seed: args.seed + u64::from(k),
+                    scene: args.scene.clone(),
+                    distance,
+                    time_limit_s: args.time_limit,
+                },
+            )
+        })
+        .collect::<std::result::Result<_, _>>()?;
+    for bin in [
+        "lwr_sim",
+        "fded_distance",
+        "ds_controller",
+        "human_observer",
+    ] {
+        let p = args.bin_dir.join(bin);
+        if !p.is_file() {
+            bail!(
+                "{} missing; build with: cargo build --release --bins -p {bin}",
+                p.display()
+            );
+        }
+    }
+    let model = RobotModel::from_urdf_file(root.join("config/robot/lwr4plus.urdf"))?;
+    shutdown::install();
+    let mut results = Vec::new();
+    let mut report = Vec::new();
+    for (k, exp) in trials.iter().enumerate() {
+        if shutdown::requested() {
+            break;
+        }
+        let (r, series) = run_trial(&args, exp, &model, k as u32)?;
+        report.push(report_trial(
+            &format!("{} seed {} ({})", exp.name, r.seed, r.distance),
+            &r,
+            series,
+        ));
+        println!(
+            "{} seed {}: {} (min distance {}, collisions {}, {:.1} s simulated, {:.0} s wall){}",
+            exp.name,
+            r.seed,
+            if r.success { "success" } else { "FAILED" },
+            r.min_distance_m
+                .map_or("-".into(), |d| format!("{:.3} m", d)),
+            r.collisions,
+            r.duration_s,
+            r.wall_s,
+            if r.reason.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", r.reason)
+            }
+        );
+        results.push(r);
+        // Write after every trial: an interrupted run keeps what was done.
+        if let Some(path) = &args.json {
+            write_json(path, &RunResult::new(&args.name, results.clone()))?;
+        }
+    }
+    let run = RunResult::new(&args.name, results);
+    println!("{}", serde_json::to_string_pretty(&run.summary)?);
+    if let Some(dir) = &args.report {
+        cowork_experiment::report::write_report(
+            dir,
+            &format!("cowork experiment {}", args.name),
+            &report,
+        )?;
+        println!("report: {}", dir.join("index.html").display());
+    }
+    Ok(())
+}
+
+fn metres(v: Option<f64>) -> String {
+    v.map_or("-".into(), |d| format!("{d:.3}"))
+}
+
+/// The report row of a trial.
+pub fn report_trial(
+    title: &str,
+    r: &TrialResult,
+    series: cowork_experiment::Series,
+) -> ReportTrial {
+    let row = vec![
+        (
+            "success".into(),
+            if r.success {
+                "yes".into()
+            } else {
+                format!("no: {}", r.reason)
+            },
+        ),
+        ("min distance (m)".into(), metres(r.min_distance_m)),
+        ("collisions".into(), r.collisions.to_string()),
+        (
+            "steps".into(),
+            format!("{}/{}", r.steps_done, r.steps_total),
+        ),
+        ("duration (s)".into(), format!("{:.1}", r.duration_s)),
+        ("backend".into(), r.backend.clone()),
+        (
+            "processing median / p99 (ms)".into(),
+            r.processing_ms
+                .map_or("-".into(), |s| format!("{:.2} / {:.2}", s.median, s.p99)),
+        ),
+        (
+            "speed far / interaction (m/s)".into(),
+            format!(
+                "{} / {}",
+                metres(r.speed_far_m_s),
+                metres(r.speed_interaction_m_s)
+            ),
+        ),
+        ("speed switches".into(), r.speed_switches.to_string()),
+    ];
+    ReportTrial {
+        title: title.to_owned(),
+        row,
+        series,
+    }
+}
+
+fn write_json(path: &Path, run: &RunResult) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    std::fs::write(path, serde_json::to_string_pretty(run)? + "\n")
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Latest messages of the graph the runner reads.
+struct Inputs {
+    joints: cowork_ros::Subscription<JointState>,
+    world: cowork_ros::Subscription<WorldState>,
+    status: cowork_ros::Subscription<MotionStatus>,
+    distances: cowork_ros::Subscription<LinkDistances>,
+    human: cowork_ros::Subscription<HumanState>,
+    gestures: cowork_ros::Subscription<Gesture>,
+    commands: cowork_ros::Subscription<Float64MultiArray>,
+}
+
+/// Readiness of the graph: what has been heard from each node.
+#[derive(Debug, Default)]
+struct Heard {
+    joints: bool,
+    world: bool,
+    status: bool,
+    distances: bool,
+    human: bool,
+}
+
+impl Heard {
+    fn missing(&self) -> Vec<&'static str> {
+        let mut m = Vec::new();
+        for (ok, what) in [
+            (self.joints, "/joint_states (lwr_sim)"),
+            (self.world, "/lwr/world (lwr_sim)"),
+            (self.status, "/motion/status (ds_controller)"),
+            (self.distances, "/fded/distances (fded_distance)"),
+            (self.human, "/human/state (human_observer)"),
+        ] {
+            if !ok {
+                m.push(what);
+            }
+        }
+        m
+    }
+}
+
+impl Inputs {
+    /// Drains every subscription into `judge`; returns the newest status of the motion.
+    fn drain(&self, judge: &mut Judge, heard: &mut Heard, status: &mut Option<MotionStatus>) {
+        while let Some(m) = self.joints.take() {
+            heard.joints = true;
+            judge.on_joint_state(&m);
+        }
+        while let Some(m) = self.world.take() {
+            heard.world = true;
+            judge.on_world(&m);
+        }
+        while let Some(m) = self.status.take() {
+            heard.status = true;
+            *status = Some(m);
+        }
+        while let Some(m) = self.distances.take() {
+            heard.distances = true;
+            judge.on_distances(&m);
+        }
+        while let Some(m) = self.human.take() {
+            heard.human = true;
+            judge.on_human_state(&m);
+        }
+        while let Some(m) = self.gestures.take() {
+            judge.on_gesture(&m);
+        }
+        while let Some(m) = self.commands.take() {
+            judge.on_command(&m);
+        }
+    }
+}
+
+fn run_trial(
+    args: &ExperimentArgs,
+    exp: &Experiment,
+    model: &RobotModel,
+    k: u32,
+) -> Result<(TrialResult, cowork_experiment::Series)> {
+    let wall0 = Instant::now();
+    let tag = format!("{}-{}-{}", exp.name, exp.distance.as_str(), exp.seed);
+    let logs = args.logs.join(&tag);
+    std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
+    let domain = private_domain(k);
+    let mut graph = Graph { procs: Vec::new() };
+    let bin = |b: &str| args.bin_dir.join(b);
+    let scene = exp.scene_path.display().to_string();
+    let mut sim_args = vec![
+        "--scene".into(),
+        scene,
+        "--params".into(),
+        "config/lwr_sim.yaml".into(),
+    ];
+    if args.max {
+        sim_args.push("--max".into());
+    } else {
+        sim_args.extend(["--rate".into(), args.rate.to_string()]);
+    }
+    // Nothing may outlive the runner for long, even if it is killed: every node has a limit.
+    let wall_limit = args.startup_timeout
+        + if args.max {
+            exp.time_limit_s * 4.0
+        } else {
+            exp.time_limit_s / args.rate * 4.0
+        }
+        + 60.0;
+    sim_args.extend(["--duration".into(), format!("{}", exp.time_limit_s + 60.0)]);
+    let wall = |v: &mut Vec<String>| v.extend(["--duration".into(), format!("{wall_limit:.0}")]);
+    let mut fded_args = vec![
+        "--params".into(),
+        "config/fded_distance.yaml".into(),
+        "--use-sim-time".into(),
+    ];
+    if exp.distance == DistanceMethod::Flacco {
+        fded_args.extend(["--method".into(), "flacco".into()]);
+    }
+    wall(&mut fded_args);
+    let mut ds_args = vec![
+        "--params".into(),
+        "config/ds_controller.yaml".into(),
+        "--use-sim-time".into(),
+    ];
+    wall(&mut ds_args);
+    let mut obs_args = vec![
+        "--params".into(),
+        "config/human_observer.yaml".into(),
+        "--use-sim-time".into(),
+        "--gestures".into(),
+        String::new(),
+    ];
+    wall(&mut obs_args);
+
+    // The runner's own node first, so that no early message of the graph is missed.
+    let mut node = RosNode::new(
+        "cowork_experiment",
+        &NodeConfig {
+            use_sim_time: true,
+            domain_id: Some(domain),
+            ..NodeConfig::default()
+        },
+    )?;
+    let inputs = Inputs {
+        joints: node.subscription("/joint_states", &qos::best_effort_depth(2000))?,
+        world: node.subscription("/lwr/world", &qos::reliable_depth(100))?,
+        status: node.subscription("/motion/status", &qos::reliable_depth(10))?,
+        distances: node.subscription("/fded/distances", &qos::reliable_depth(100))?,
+        human: node.subscription("/human/state", &qos::reliable_depth(100))?,
+        gestures: node.subscription("/human/gesture", &qos::reliable_depth(100))?,
+        commands: node
+            .subscription("/lwr/joint_velocity_command", &qos::best_effort_depth(2000))?,
+    };
+    let motion_pub =
+        node.publisher::<MotionCommand>("/motion/command", &qos::reliable_depth(10))?;
+    let gripper_pub = node.publisher::<RosString>("/lwr/gripper_command", &qos::reliable())?;
+    let skeleton_pub = node.publisher::<Skeleton>("/human/skeleton", &qos::reliable_depth(50))?;
+
+    let bag = args.record.as_ref().map(|d| d.join(format!("{tag}.mcap")));
+    let started = (|| -> Result<()> {
+        if let Some(bag) = &bag {
+            std::fs::create_dir_all(bag.parent().unwrap_or(Path::new(".")))?;
+            let me =
+                std::env::current_exe().context("locating the cowork binary for the recorder")?;
+            let mut rec = vec![
+                "bag".into(),
+                "record".into(),
+                "-o".into(),
+                bag.display().to_string(),
+            ];
+            wall(&mut rec);
+            graph.spawn("recorder", &me, &rec, domain, &logs)?;
+        }
+        graph.spawn(
+            "human_observer",
+            &bin("human_observer"),
+            &obs_args,
+            domain,
+            &logs,
+        )?;
+        graph.spawn(
+            "ds_controller",
+            &bin("ds_controller"),
+            &ds_args,
+            domain,
+            &logs,
+        )?;
+        graph.spawn(
+            "fded_distance",
+            &bin("fded_distance"),
+            &fded_args,
+            domain,
+            &logs,
+        )?;
+        graph.spawn("lwr_sim", &bin("lwr_sim"), &sim_args, domain, &logs)?;
+        Ok(())
+    })();
+    // Which processes ran (for the log reader, and for checking that none is left over).
+    let pids: String = graph
+        .procs
+        .iter()
+        .map(|p| format!("{} {}\n", p.name, p.child.id()))
+        .collect();
+    std::fs::write(logs.join("pids.txt"), pids)
+        .with_context(|| format!("writing {}", logs.join("pids.txt").display()))?;
+
+    let mut judge = Judge::new(model.clone(), cowork_people::DEFAULT_FLOOR_Z)?;
+    let mut sequencer = Sequencer::new(exp.steps.clone());
+    let bar = ProgressBar::new(sequencer.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} steps {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_prefix(format!("{} seed {}", exp.name, exp.seed));
+    let mut heard = Heard::default();
+    let mut status: Option<MotionStatus> = None;
+    let mut outputs = Vec::new();
+    let mut failure: Option<String> = started.err().map(|e| format!("graph did not start: {e:#}"));
+    let startup_deadline = wall0 + cowork_ros::duration_s(args.startup_timeout);
+    let mut t0: Option<f64> = None;
+    let mut done_at: Option<f64> = None;
+    let mut next_person = 0u64;
+    let people_end = exp.people.duration();
+    let person_period = 1.0 / exp.people_rate_hz;
+    let mut skeleton = Skeleton::default();
+    let mut last_t = 0.0;
+    while failure.is_none() {
+        if shutdown::requested() {
+            failure = Some("interrupted (Ctrl-C)".into());
+            break;
+        }
+        if let Some(e) = graph.exited() {
+            failure = Some(format!("node died: {e}"));
+            break;
+        }
+        inputs.drain(&mut judge, &mut heard, &mut status);
+        let now = node.now().to_secs_f64();
+        if !node.clock_started() {
+            if Instant::now() > startup_deadline {
+                failure = Some(format!(
+                    "graph not up after {} s: no /clock from lwr_sim",
+                    args.startup_timeout
+                ));
+            }
+            std::thread::sleep(Duration::from_millis(5));
+            continue;
+        }
+        last_t = now;
+        let Some(start) = t0 else {
+            // Ready when every node has spoken and our writers are matched.
+            let matched = motion_pub.subscription_count(&node) >= 1
+                && gripper_pub.subscription_count(&node) >= 1
+                && skeleton_pub.subscription_count(&node) >= 2;
+            if heard.missing().is_empty() && matched {
+                t0 = Some(now);
+                bar.set_message(format!("t = 0 at sim {now:.2} s"));
+            } else if Instant::now() > startup_deadline {
+                let mut m = heard.missing();
+                if !matched {
+                    m.push("subscribers of /motion/command, /lwr/gripper_command, /human/skeleton");
+                }
+                failure = Some(format!(
+                    "graph not up after {} s: nothing yet from {}",
+                    args.startup_timeout,
+                    m.join(", ")
+                ));
+            }
+            std::thread::sleep(Duration::from_millis(2));
+            continue;
+        };
+        let t = now - start;
+        // The scripted people, on the simulated clock.
+        while (next_person as f64) * person_period <= t.min(people_end) {
+            let tp = next_person as f64 * person_period;
+            for (id, pose) in exp.people.poses_at(tp) {
+                let meta = MessageMeta {
+                    stamp: Time::from_secs_f64(start + tp),
+                    frame_id: cowork_people::BASE_FRAME,
+                    source: Skeleton::SOURCE_XSENS,
+                    person_id: id,
+                    with_velocities: true,
+                };
+                pose.write_message(&meta, &mut skeleton);
+                judge.on_skeleton(&skeleton);
+                skeleton_pub.publish(skeleton.clone())?;
+            }
+            next_person += 1;
+        }
+        if done_at.is_none() {
+            outputs.clear();
+            let progress = sequencer.update(now, status.as_ref(), judge.world(), &mut outputs);
+            for o in outputs.drain(..) {
+                match o {
+                    Output::Motion(m) => motion_pub.publish(m)?,
+                    Output::Gripper(g) => gripper_pub.publish(RosString { data: g.into() })?,
+                }
+            }
+            bar.set_position(sequencer.finished().len() as u64);
+            match progress {
+                Progress::Running => {}
+                Progress::Done => done_at = Some(t),
+                Progress::Failed(reason) => failure = Some(reason),
+            }
+            if let Some(step) = sequencer.current() {
+                bar.set_message(format!("t = {t:.1} s: {}", Sequencer::label(step)));
+            }
+        }
+        if let Some(d) = done_at
+            && t >= (d + exp.settle_s).max(people_end)
+        {
+            break;
+        }
+        if t > exp.time_limit_s {
+            failure = Some(format!(
+                "time limit {} s reached at step {}/{} ({})",
+                exp.time_limit_s,
+                sequencer.finished().len() + 1,
+                sequencer.len(),
+                sequencer
+                    .current()
+                    .map(Sequencer::label)
+                    .unwrap_or_default()
+            ));
+        }
+        std::thread::sleep(Duration::from_micros(500));
+    }
+    bar.finish_and_clear();
+    // Last messages in flight, then stop everything.
+    std::thread::sleep(Duration::from_millis(100));
+    inputs.drain(&mut judge, &mut heard, &mut status);
+    graph.stop();
+    drop(node);
+
+    let placements = judge.placements(&exp.placements);
+    let mut subtasks = BTreeMap::new();
+    for pl in &exp.placements {
+        let Some(name) = &pl.subtask else { continue };
+        let f = sequencer.finished();
+        let begin = f
+            .iter()
+            .find(|s| s.1.contains(pl.object.as_str()))
+            .map(|s| s.2);
+        let end = f
+            .iter()
+            .find(|s| s.1 == format!("release {}", pl.object))
+            .map(|s| s.3);
+        let placed = placements
+            .iter()
+            .any(|p| p.object == pl.object && p.success);
+        let time_s = begin.zip(end).map(|(b, e)| e - b);
+        subtasks.insert(
+            name.clone(),
+            Subtask {
+                time_s,
+                success: time_s.is_some() && placed,
+            },
+        );
+    }
+    let mut reason = failure.unwrap_or_default();
+    if reason.is_empty() {
+        let bad: Vec<String> = placements
+            .iter()
+            .filter(|p| !p.success)
+            .map(|p| {
+                format!(
+                    "{} off by {}",
+                    p.object,
+                    p.error_m
+                        .map_or("? (missing)".into(), |e| format!("{:.3} m", e))
+                )
+            })
+            .collect();
+        if !bad.is_empty() {
+            reason = format!("placement: {}", bad.join(", "));
+        } else if judge.collisions > 0 {
+            reason = format!("{} collision(s) between robot and person", judge.collisions);
+        }
+    }
+    let duration_s = t0.map_or(0.0, |s| (last_t - s).max(0.0));
+    let result = TrialResult {
+        seed: exp.seed,
+        success: reason.is_empty(),
+        reason,
+        duration_s,
+        wall_s: wall0.elapsed().as_secs_f64(),
+        min_distance_m: judge.min_distance(),
+        collisions: judge.collisions,
+        subtasks,
+        distance: exp.distance.as_str().into(),
+        backend: judge.series.backend.clone(),
+        processing_ms: Stats::of(judge.series.processing_ms.iter().map(|p| p.1)),
+        speed_far_m_s: judge.speed_at(0.3),
+        speed_interaction_m_s: judge.speed_at(0.1),
+        speed_switches: judge.speed_switches(),
+        placements,
+        steps_done: sequencer.finished().len(),
+        steps_total: sequencer.len(),
+        gestures: judge.series.gestures.iter().map(|g| g.1.clone()).collect(),
+        variant: Some(exp.variant.clone()),
+        bag: bag.map(|b| b.display().to_string()),
+    };
+    Ok((result, judge.series))
+}

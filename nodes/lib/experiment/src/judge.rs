@@ -1,0 +1,404 @@
+//! Judging a trial from what the simulated world did: the true robot–person distance (robot
+//! link geometry against the capsule body lwr_sim draws from the same `/human/skeleton`),
+//! collisions, object placements from `/lwr/world`, and the time series of the report. Fed
+//! with typed messages — live by the runner, or from a recorded MCAP by [`crate::bag`] — so a
+//! recorded run is judged exactly as it was live.
+
+use std::collections::BTreeMap;
+
+use cowork_msgs::msg::{Gesture, HumanState, LinkDistances, Skeleton, WorldState};
+use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::std_msgs::Float64MultiArray;
+use cowork_people::{SkeletonPose, body_capsules};
+use cowork_robot::{DOF, JointVector, LinkPoses, RobotModel};
+use cowork_scenario::distance::LinkGeometry;
+use cowork_scenario::obstacle::Obstacle;
+use nalgebra::{Point3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::error::Result;
+use crate::plan::{Anchor, Placement};
+
+/// The thesis's minimum robot–person distance with fDED (Sec. 5.1.3, Fig. 5.14), m.
+pub const THESIS_MIN_DISTANCE_M: f64 = 0.067;
+
+/// A person whose last skeleton is older than this is gone (s; lwr_sim's default timeout).
+const PERSON_TIMEOUT_S: f64 = 0.5;
+/// Distances beyond this are not computed exactly (m).
+const RANGE_M: f64 = 6.0;
+
+/// Mode of the human observer as plotted: far, interaction, stopped, nobody.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Nobody tracked.
+    Absent,
+    /// Person far: nominal speed.
+    Far,
+    /// Person close: interaction speed.
+    Interaction,
+    /// Stopped (gesture or speech).
+    Stopped,
+}
+
+/// Time series of one trial (s of simulated time, SI units).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Series {
+    /// True minimum robot–person distance (m), one sample per skeleton frame with a person.
+    pub distance: Vec<(f64, f64)>,
+    /// Smallest valid distance of each `/fded/distances` message (m; frames with no valid
+    /// link are left out).
+    pub measured_distance: Vec<(f64, f64)>,
+    /// Processing time of each `/fded/distances` message (ms).
+    pub processing_ms: Vec<(f64, f64)>,
+    /// Tool speed from `/lwr/world` (m/s).
+    pub tool_speed: Vec<(f64, f64)>,
+    /// α_h of `/human/state` (m/s).
+    pub alpha: Vec<(f64, f64)>,
+    /// Mode of `/human/state`.
+    pub mode: Vec<(f64, Mode)>,
+    /// Gestures recognised (`/human/gesture`).
+    pub gestures: Vec<(f64, String)>,
+    /// Norm of the commanded joint velocity (rad/s).
+    pub commanded_qdot: Vec<(f64, f64)>,
+    /// Norm of the executed joint velocity of `/joint_states` (rad/s).
+    pub executed_qdot: Vec<(f64, f64)>,
+    /// Backend that computed the distances (`cpu`, `wgpu`, `spheres`).
+    pub backend: String,
+}
+
+/// Statistics of a sample set.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Stats {
+    /// Samples.
+    pub n: usize,
+    /// Median.
+    pub median: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Mean.
+    pub mean: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+impl Stats {
+    /// Of `values` (`None` when empty).
+    pub fn of(values: impl Iterator<Item = f64>) -> Option<Stats> {
+        let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return None;
+        }
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let q = |p: f64| v[((p * (n - 1) as f64).round() as usize).min(n - 1)];
+        Some(Stats {
+            n,
+            median: q(0.5),
+            p99: q(0.99),
+            mean: v.iter().sum::<f64>() / n as f64,
+            max: v[n - 1],
+        })
+    }
+}
+
+/// Result of one placement check.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlacementResult {
+    /// Object judged.
+    pub object: String,
+    /// Distance of its centre from where it must be (m); `None` when it is missing.
+    pub error_m: Option<f64>,
+    /// Within tolerance.
+    pub success: bool,
+}
+
+/// One subtask's outcome.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Subtask {
+    /// Simulated time it took (s); `None` when it never finished.
+    pub time_s: Option<f64>,
+    /// Finished and placed within tolerance.
+    pub success: bool,
+}
+
+/// Accumulates one trial.
+#[derive(Debug)]
+pub struct Judge {
+    model: RobotModel,
+    geometry: LinkGeometry,
+    poses: LinkPoses,
+    floor_z: f64,
+    q: Option<(f64, JointVector)>,
+    joint_index: Vec<Option<usize>>,
+    /// person id → (stamp, capsules).
+    people: BTreeMap<u32, (f64, Vec<Obstacle>)>,
+    in_contact: bool,
+    /// clear → touching transitions.
+    pub collisions: u32,
+    /// Newest simulated time seen (s).
+    pub now: f64,
+    first_world: Option<WorldState>,
+    last_world: Option<WorldState>,
+    last_tool: Option<(f64, Vector3<f64>)>,
+    /// The series.
+    pub series: Series,
+}
+
+impl Judge {
+    /// A judge for `model`; people stand on `floor_z` (base frame, m).
+    pub fn new(model: RobotModel, floor_z: f64) -> Result<Self> {
+        let geometry = LinkGeometry::new(&model, RANGE_M)?;
+        Ok(Self {
+            geometry,
+            poses: LinkPoses::new(),
+            floor_z,
+            q: None,
+            joint_index: Vec::new(),
+            people: BTreeMap::new(),
+            in_contact: false,
+            collisions: 0,
+            now: 0.0,
+            first_world: None,
+            last_world: None,
+            last_tool: None,
+            series: Series::default(),
+            model,
+        })
+    }
+
+    /// `/joint_states`.
+    pub fn on_joint_state(&mut self, msg: &JointState) {
+        let t = msg.header.stamp.to_secs_f64();
+        if self.joint_index.len() != msg.name.len() {
+            self.joint_index = msg.name.iter().map(|n| self.model.joint_index(n)).collect();
+        }
+        let mut q = JointVector::zeros();
+        let mut seen = 0;
+        for (k, i) in self.joint_index.iter().enumerate() {
+            if let (Some(i), Some(p)) = (i, msg.position.get(k)) {
+                q[*i] = *p;
+                seen += 1;
+            }
+        }
+        if seen != DOF || !q.iter().all(|v| v.is_finite()) {
+            return;
+        }
+        self.now = self.now.max(t);
+        // Executed joint speed at 100 Hz is plenty for a plot.
+        if self
+            .series
+            .executed_qdot
+            .last()
+            .is_none_or(|(s, _)| t - s >= 0.01)
+            && msg.velocity.len() == DOF
+        {
+            let n = msg.velocity.iter().map(|v| v * v).sum::<f64>().sqrt();
+            self.series.executed_qdot.push((t, n));
+        }
+        self.q = Some((t, q));
+    }
+
+    /// `/human/skeleton`: the true body; the distance is evaluated at every frame.
+    pub fn on_skeleton(&mut self, msg: &Skeleton) {
+        let t = msg.header.stamp.to_secs_f64();
+        let Ok(pose) = SkeletonPose::from_message_measured(msg, self.floor_z) else {
+            return;
+        };
+        let caps = body_capsules(&pose)
+            .iter()
+            .map(|c| {
+                Obstacle::capsule(
+                    "person",
+                    c.a,
+                    c.b,
+                    c.radius,
+                    Vector3::zeros(),
+                    Vector3::zeros(),
+                )
+            })
+            .collect();
+        self.people.insert(msg.person_id, (t, caps));
+        self.now = self.now.max(t);
+        self.evaluate(t);
+    }
+
+    fn evaluate(&mut self, t: f64) {
+        self.people.retain(|_, (s, _)| t - *s <= PERSON_TIMEOUT_S);
+        let Some((_, q)) = self.q else { return };
+        if self.people.is_empty() {
+            return;
+        }
+        self.model.forward_kinematics(&q, &mut self.poses);
+        let obstacles: Vec<Obstacle> = self
+            .people
+            .values()
+            .flat_map(|(_, c)| c.iter().cloned())
+            .collect();
+        let (_, closest) = self.geometry.distances(&self.poses, &obstacles, t);
+        let d = closest.human_distance;
+        if !d.is_finite() {
+            return;
+        }
+        let touching = d <= 0.0;
+        if touching && !self.in_contact {
+            self.collisions += 1;
+        }
+        self.in_contact = touching;
+        self.series.distance.push((t, d));
+    }
+
+    /// `/fded/distances`.
+    pub fn on_distances(&mut self, msg: &LinkDistances) {
+        let t = msg.header.stamp.to_secs_f64();
+        self.series
+            .processing_ms
+            .push((t, msg.processing_time * 1e3));
+        if self.series.backend != msg.backend {
+            self.series.backend = msg.backend.clone();
+        }
+        let min = msg
+            .links
+            .iter()
+            .filter(|l| l.valid && l.distance.is_finite())
+            .map(|l| l.distance)
+            .fold(f64::INFINITY, f64::min);
+        if min.is_finite() {
+            self.series.measured_distance.push((t, min));
+        }
+    }
+
+    /// `/human/state`.
+    pub fn on_human_state(&mut self, msg: &HumanState) {
+        let t = msg.header.stamp.to_secs_f64();
+        self.series.alpha.push((t, msg.speed_scale));
+        let mode = if !msg.present {
+            Mode::Absent
+        } else if msg.stopped {
+            Mode::Stopped
+        } else if msg.mode == HumanState::MODE_INTERACTION {
+            Mode::Interaction
+        } else {
+            Mode::Far
+        };
+        self.series.mode.push((t, mode));
+    }
+
+    /// `/human/gesture`.
+    pub fn on_gesture(&mut self, msg: &Gesture) {
+        self.series
+            .gestures
+            .push((msg.header.stamp.to_secs_f64(), msg.label.clone()));
+    }
+
+    /// `/lwr/joint_velocity_command` (unstamped: taken at the newest simulated time).
+    pub fn on_command(&mut self, msg: &Float64MultiArray) {
+        let t = self.now;
+        if self
+            .series
+            .commanded_qdot
+            .last()
+            .is_none_or(|(s, _)| t - s >= 0.01)
+        {
+            let n = msg.data.iter().map(|v| v * v).sum::<f64>().sqrt();
+            self.series.commanded_qdot.push((t, n));
+        }
+    }
+
+    /// `/lwr/world`.
+    pub fn on_world(&mut self, msg: &WorldState) {
+        let t = msg.header.stamp.to_secs_f64();
+        let p = &msg.tool_pose.position;
+        let x = Vector3::new(p.x, p.y, p.z);
+        match self.last_tool {
+            Some((s, y)) if t - s >= 0.05 => {
+                self.series
+                    .tool_speed
+                    .push((0.5 * (s + t), (x - y).norm() / (t - s)));
+                self.last_tool = Some((t, x));
+            }
+            Some(_) => {}
+            None => self.last_tool = Some((t, x)),
+        }
+        if self.first_world.is_none() {
+            self.first_world = Some(msg.clone());
+        }
+        self.last_world = Some(msg.clone());
+        self.now = self.now.max(t);
+    }
+
+    /// The newest `/lwr/world`.
+    pub fn world(&self) -> Option<&WorldState> {
+        self.last_world.as_ref()
+    }
+
+    /// Smallest true robot–person distance so far (m).
+    pub fn min_distance(&self) -> Option<f64> {
+        self.series.distance.iter().map(|d| d.1).reduce(f64::min)
+    }
+
+    /// Checks `placements` against the first and the newest `/lwr/world`.
+    pub fn placements(&self, placements: &[Placement]) -> Vec<PlacementResult> {
+        let centre = |w: &WorldState, name: &str| {
+            w.objects.iter().find(|o| o.name == name).map(|o| {
+                let p = &o.pose.position;
+                Point3::new(p.x, p.y, p.z)
+            })
+        };
+        placements
+            .iter()
+            .map(|pl| {
+                let error_m = (|| {
+                    let last = self.last_world.as_ref()?;
+                    let here = centre(last, &pl.object)?;
+                    let anchor = match &pl.anchor {
+                        Anchor::Object(other) => centre(last, other)?,
+                        Anchor::Initial => centre(self.first_world.as_ref()?, &pl.object)?,
+                        Anchor::Point(p) => Point3::from(*p),
+                    };
+                    Some((here - (anchor + Vector3::from(pl.offset))).norm())
+                })();
+                PlacementResult {
+                    object: pl.object.clone(),
+                    success: error_m.is_some_and(|e| e <= pl.tolerance_m),
+                    error_m,
+                }
+            })
+            .collect()
+    }
+
+    /// Speeds the tool actually moved at while the task ran: the median tool speed over the
+    /// samples with α_h at `alpha` (±1 cm/s) and the tool faster than 2 cm/s.
+    pub fn speed_at(&self, alpha: f64) -> Option<f64> {
+        let a = &self.series.alpha;
+        let at = |t: f64| {
+            a.partition_point(|s| s.0 <= t)
+                .checked_sub(1)
+                .map(|i| a[i].1)
+        };
+        Stats::of(
+            self.series
+                .tool_speed
+                .iter()
+                .filter(|(t, v)| *v > 0.02 && at(*t).is_some_and(|x| (x - alpha).abs() < 0.01))
+                .map(|s| s.1),
+        )
+        .map(|s| s.median)
+    }
+
+    /// Number of α_h changes between two different non-zero values.
+    pub fn speed_switches(&self) -> usize {
+        let mut last = None;
+        let mut n = 0;
+        for &(_, a) in &self.series.alpha {
+            if a <= 0.0 {
+                continue;
+            }
+            if last.is_some_and(|l: f64| (l - a).abs() > 1e-6) {
+                n += 1;
+            }
+            last = Some(a);
+        }
+        n
+    }
+}

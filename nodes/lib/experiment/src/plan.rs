@@ -1,0 +1,415 @@
+//! Experiment descriptions: the scene, the task script (motions and gripper commands), the
+//! scripted people and the success test. Plain data; the runner executes them.
+
+use std::path::PathBuf;
+
+use cowork_people::{Action, BodySize, Performer, Room, Side, Timeline};
+use cowork_sim::{Scene, Shape};
+use nalgebra::{Point2, Point3, Vector3};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// Experiments the runner knows.
+pub const NAMES: [&str; 1] = ["stacking-hri"];
+
+/// Where the DS controller's robot–obstacle distances come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DistanceMethod {
+    /// fDED on the rendered depth image (thesis Sec. 5.1.2).
+    Fded,
+    /// Flacco et al.'s sphere method on the same image, at its real cost (Sec. 5.1.3 baseline).
+    Flacco,
+}
+
+impl DistanceMethod {
+    /// `fded` or `flacco`.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DistanceMethod::Fded => "fded",
+            DistanceMethod::Flacco => "flacco",
+        }
+    }
+
+    /// Parses `fded` / `flacco`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "fded" => Some(DistanceMethod::Fded),
+            "flacco" => Some(DistanceMethod::Flacco),
+            _ => None,
+        }
+    }
+}
+
+/// One step of the task script.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Step {
+    /// Constant-speed point-to-point motion of the tool point to `goal` (base frame, m) at
+    /// `speed` m/s nominal, orientation held (`/motion/command` KIND_CONSTANT_SPEED).
+    Move {
+        /// For logs and the report.
+        label: String,
+        /// Goal of the tool point, base frame (m).
+        goal: [f64; 3],
+        /// Nominal speed (m/s) before the human scaling.
+        speed: f64,
+    },
+    /// Close the gripper on `object` (it must then be held) or open it (`object` released).
+    Grip {
+        /// Close (grasp) or open (release).
+        close: bool,
+        /// The object grasped or released.
+        object: String,
+    },
+}
+
+/// What an object's final centre is measured against.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Anchor {
+    /// Its own initial centre (it must stay put).
+    Initial,
+    /// Another object's final centre.
+    Object(String),
+    /// A fixed point (base frame, m).
+    Point([f64; 3]),
+}
+
+/// Where an object must end up: within `tolerance_m` of `anchor` + `offset`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Placement {
+    /// The object judged.
+    pub object: String,
+    /// What its final centre is measured against.
+    pub anchor: Anchor,
+    /// Offset from the anchor (m, base frame).
+    pub offset: [f64; 3],
+    /// Tolerance on the centre distance (m).
+    pub tolerance_m: f64,
+    /// The subtask this placement finishes (its time is taken when its release step ends).
+    pub subtask: Option<String>,
+}
+
+/// What varies with the seed (written into the JSON of each trial).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Variant {
+    /// Person's standing height (m).
+    pub body_height_m: f64,
+    /// Side of the table the person works at: `-y` or `+y`.
+    pub side: String,
+    /// Simulated time the person starts walking in (s).
+    pub enter_s: f64,
+    /// Peak hand speed of each reach (m/s).
+    pub reach_speeds_m_s: Vec<f64>,
+    /// Target of each reach (base frame, m).
+    pub reach_targets: Vec<[f64; 3]>,
+}
+
+/// A whole experiment trial, ready to run.
+#[derive(Debug, Clone)]
+pub struct Experiment {
+    /// Experiment name (`stacking-hri`).
+    pub name: String,
+    /// Seed of this trial.
+    pub seed: u64,
+    /// Scene file (relative to the repository root unless absolute).
+    pub scene_path: PathBuf,
+    /// The scene.
+    pub scene: Scene,
+    /// Distance source.
+    pub distance: DistanceMethod,
+    /// Task script, executed in order.
+    pub steps: Vec<Step>,
+    /// Scripted people on the simulated clock (t = 0 when the trial starts).
+    pub people: Timeline,
+    /// Rate at which their skeletons are published (Hz of simulated time).
+    pub people_rate_hz: f64,
+    /// Success test.
+    pub placements: Vec<Placement>,
+    /// A trial still running at this simulated time fails (s).
+    pub time_limit_s: f64,
+    /// After the last step the trial still runs this long, e.g. until the person has left (s).
+    pub settle_s: f64,
+    /// What the seed chose.
+    pub variant: Variant,
+}
+
+/// Options common to every experiment.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Seed of the trial.
+    pub seed: u64,
+    /// Scene file, `None` for the experiment's own.
+    pub scene: Option<PathBuf>,
+    /// Distance source.
+    pub distance: DistanceMethod,
+    /// Simulated-time limit override (s).
+    pub time_limit_s: Option<f64>,
+}
+
+/// Builds experiment `name` for one trial. `root` is the repository root (scene files are
+/// relative to it).
+pub fn build(name: &str, root: &std::path::Path, options: &Options) -> Result<Experiment> {
+    match name {
+        "stacking-hri" => stacking_hri(root, options),
+        _ => Err(Error::UnknownExperiment {
+            name: name.to_owned(),
+            known: NAMES.join(", "),
+        }),
+    }
+}
+
+/// Travel height of the tool between picks and places (m above the table top).
+const TRAVEL_Z: f64 = 0.25;
+/// Clearance of a placed block above its support (m): it drops the rest.
+const PLACE_CLEARANCE: f64 = 0.005;
+
+fn box_size(scene: &Scene, place: &str, name: &str) -> Result<(Point3<f64>, Vector3<f64>)> {
+    let o = scene
+        .objects
+        .iter()
+        .find(|o| o.name == name)
+        .ok_or_else(|| Error::Scene {
+            place: place.to_owned(),
+            message: format!("object `{name}` missing (stacking-hri needs block1 and block2)"),
+        })?;
+    let Shape::Box { size } = o.shape else {
+        return Err(Error::Scene {
+            place: place.to_owned(),
+            message: format!("object `{name}` must be a box"),
+        });
+    };
+    let p = o.pose.isometry().translation.vector;
+    Ok((Point3::from(p), Vector3::from(size)))
+}
+
+/// Every object must rest on the table: its footprint centre over the table top and its
+/// bottom within 5 mm of the top (or of another object it stands on).
+pub fn check_scene(scene: &Scene, place: &str) -> Result<()> {
+    let top = scene.table_top_z();
+    let t = scene.table.pose.isometry();
+    let half = [0.5 * scene.table.size[0], 0.5 * scene.table.size[1]];
+    for o in &scene.objects {
+        let c = o.pose.isometry().translation.vector;
+        let local = t.inverse() * Point3::from(c);
+        if local.x.abs() > half[0] || local.y.abs() > half[1] {
+            return Err(Error::Scene {
+                place: place.to_owned(),
+                message: format!(
+                    "object `{}` at ({:.3}, {:.3}) is off the table ({:.2} x {:.2} m around ({:.3}, {:.3}))",
+                    o.name,
+                    c.x,
+                    c.y,
+                    scene.table.size[0],
+                    scene.table.size[1],
+                    t.translation.vector.x,
+                    t.translation.vector.y
+                ),
+            });
+        }
+        let half_h = match o.shape {
+            Shape::Box { size } => 0.5 * size[2],
+            Shape::Cylinder { height, .. } => 0.5 * height,
+            Shape::Sphere { radius } => radius,
+        };
+        if c.z - half_h < top - 0.005 {
+            return Err(Error::Scene {
+                place: place.to_owned(),
+                message: format!(
+                    "object `{}` reaches {:.3} m below the table top",
+                    o.name,
+                    top - (c.z - half_h)
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Sec. 5.1.3: the robot stacks block1 at g3 and block2 on top of it (g4); each block: above
+/// it, down (g1 / g2), grasp, up, above the stack, down (g3 / g4), release, up — constant-speed
+/// motions ẋ = α_h (g − x)/‖g − x‖ at 0.3 m/s nominal, orientation held —
+/// while a scripted person walks up to the table, reaches across the arm's path one to three
+/// times and leaves. Varied by the seed: body height 1.55–1.90 m, side of the table, when the
+/// person comes, peak hand speed of each reach 0.5–1.5 m/s and its target on the path.
+fn stacking_hri(root: &std::path::Path, o: &Options) -> Result<Experiment> {
+    let scene_path = o
+        .scene
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("config/scenes/stacking-hri.yaml"));
+    let full = if scene_path.is_absolute() {
+        scene_path.clone()
+    } else {
+        root.join(&scene_path)
+    };
+    let place = scene_path.display().to_string();
+    let scene = Scene::from_file(&full).map_err(|e| Error::Scene {
+        place: place.clone(),
+        message: e.to_string(),
+    })?;
+    check_scene(&scene, &place)?;
+    let top = scene.table_top_z();
+    let speed = 0.3;
+    let mut steps = Vec::new();
+    let mut placements = Vec::new();
+    let mv = |label: String, p: Point3<f64>| Step::Move {
+        label,
+        goal: [p.x, p.y, p.z],
+        speed,
+    };
+    let (_, s1) = box_size(&scene, &place, "block1")?;
+    // g3: the thesis's first stacking position (mirrored), on the table.
+    let g3 = Point3::new(0.55, -0.30, top + 0.5 * s1.z);
+    let travel = top + TRAVEL_Z;
+    let mut below = (
+        g3 - Vector3::new(0.0, 0.0, 0.5 * s1.z),
+        Anchor::Point([g3.x, g3.y, g3.z]),
+    );
+    for pick in ["block1", "block2"] {
+        let (p, ps) = box_size(&scene, &place, pick)?;
+        // Released just above its support: it drops the rest.
+        let support_top = below.0;
+        let place_at = Point3::new(
+            support_top.x,
+            support_top.y,
+            support_top.z + 0.5 * ps.z + PLACE_CLEARANCE,
+        );
+        steps.push(mv(format!("above {pick}"), Point3::new(p.x, p.y, travel)));
+        steps.push(mv(format!("down to {pick}"), p));
+        steps.push(Step::Grip {
+            close: true,
+            object: pick.into(),
+        });
+        steps.push(mv(format!("lift {pick}"), Point3::new(p.x, p.y, travel)));
+        steps.push(mv(
+            format!("{pick} above the stack"),
+            Point3::new(place_at.x, place_at.y, travel),
+        ));
+        steps.push(mv(format!("{pick} onto the stack"), place_at));
+        steps.push(Step::Grip {
+            close: false,
+            object: pick.into(),
+        });
+        steps.push(mv(
+            format!("up from {pick}"),
+            Point3::new(place_at.x, place_at.y, travel),
+        ));
+        let offset = match below.1 {
+            Anchor::Point(_) => [0.0; 3],
+            _ => [0.0, 0.0, 0.5 * (ps.z + s1.z)],
+        };
+        placements.push(Placement {
+            object: pick.into(),
+            anchor: below.1.clone(),
+            offset,
+            tolerance_m: 0.01,
+            subtask: Some(format!("stack {pick}")),
+        });
+        below = (
+            Point3::new(support_top.x, support_top.y, support_top.z + ps.z),
+            Anchor::Object(pick.into()),
+        );
+    }
+
+    // The person.
+    let mut rng = ChaCha8Rng::seed_from_u64(o.seed);
+    let height = rng.random_range(1.55..=1.90);
+    let body = BodySize::new(height)?;
+    let sign = if rng.random_bool(0.5) { -1.0 } else { 1.0 };
+    let room = Room::default();
+    let spot = Point2::new(room.standing_spot.x, sign * room.standing_spot.y.abs());
+    let entry = Point2::new(room.entry.x, sign * room.entry.y.abs());
+    let centre = Point3::new(
+        room.workspace_centre.x,
+        sign * room.workspace_centre.y.abs(),
+        0.0,
+    );
+    let facing = |p: &Point2<f64>| (centre.y - p.y).atan2(centre.x - p.x);
+    let enter = rng.random_range(1.0..4.0);
+    let reaches = rng.random_range(1..=3usize);
+    // Targets on the arm's path on the person's side: the travel segment between the two
+    // columns and the descent above the base blocks.
+    let base_y = sign * 0.3;
+    let mut performer = Performer::new(
+        1,
+        body,
+        cowork_people::Stance {
+            position: entry,
+            yaw: facing(&entry),
+        },
+        o.seed,
+    )?
+    .with_floor_z(room.floor_z)?
+    .then(Action::Walk {
+        to: spot,
+        speed: 1.1,
+        face_yaw: Some(facing(&spot)),
+    })?
+    .then(Action::Stand {
+        duration: rng.random_range(0.5..2.0),
+    })?;
+    let shoulder_z = room.floor_z + body.lengths().hip_height + body.lengths().pelvis_to_shoulder;
+    let (mut speeds, mut targets) = (Vec::new(), Vec::new());
+    for _ in 0..reaches {
+        let target = Point3::new(
+            rng.random_range(0.45..0.62),
+            base_y - sign * rng.random_range(0.0..0.35),
+            top + rng.random_range(0.12..0.30),
+        );
+        let shoulder = Point3::new(spot.x, spot.y - sign * 0.2, shoulder_z);
+        let peak = rng.random_range(0.5..1.5);
+        // Minimum-jerk reach: peak speed 1.875 x the mean speed.
+        let duration = (1.875 * (target - shoulder).norm() / peak).clamp(0.25, 3.0);
+        performer = performer
+            .then(Action::Reach {
+                side: Side::Right,
+                target,
+                duration,
+                hold: rng.random_range(0.5..1.5),
+            })?
+            .then(Action::Stand {
+                duration: rng.random_range(1.0..4.0),
+            })?;
+        speeds.push(peak);
+        targets.push([target.x, target.y, target.z]);
+    }
+    performer = performer.then(Action::Walk {
+        to: entry,
+        speed: 1.2,
+        face_yaw: None,
+    })?;
+    let mut people = Timeline::new();
+    people.add(enter, performer)?;
+    let variant = Variant {
+        body_height_m: height,
+        side: if sign < 0.0 { "-y".into() } else { "+y".into() },
+        enter_s: enter,
+        reach_speeds_m_s: speeds,
+        reach_targets: targets,
+    };
+    let time_limit_s = o.time_limit_s.unwrap_or(150.0);
+    if !(time_limit_s.is_finite() && time_limit_s > 0.0) {
+        return Err(Error::BadOption {
+            experiment: "stacking-hri".into(),
+            message: format!("time limit {time_limit_s} s must be > 0"),
+        });
+    }
+    Ok(Experiment {
+        name: "stacking-hri".into(),
+        seed: o.seed,
+        scene_path,
+        scene,
+        distance: o.distance,
+        steps,
+        people,
+        people_rate_hz: 120.0,
+        placements,
+        time_limit_s,
+        settle_s: 0.5,
+        variant,
+    })
+}
