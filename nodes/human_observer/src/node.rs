@@ -159,7 +159,7 @@ impl ObserverNode {
     pub fn on_joint_state(&mut self, msg: &JointState) -> Result<(), Warning> {
         self.observer
             .on_joint_state(msg.header.stamp.to_secs_f64(), &msg.name, &msg.position)
-            .map_err(|e| Warning { kind: format!("{TOPIC_JOINT_STATES}"), message: format!("{TOPIC_JOINT_STATES}: message ignored: {e}") })
+            .map_err(|e| Warning { kind: TOPIC_JOINT_STATES.to_string(), message: format!("{TOPIC_JOINT_STATES}: message ignored: {e}") })
     }
 
     /// `/speech_command`: `stop` / `repeat` (the words of the parameters) move the stop latch;

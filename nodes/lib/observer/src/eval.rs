@@ -216,10 +216,10 @@ pub fn recognise(model: &GestureModel, stream: &Stream) -> Result<(Vec<Report>, 
     let mut out = Vec::new();
     for m in &stream.frames {
         let Ok(f) = check_skeleton(m, "lwr_base_link", -0.75) else { continue };
-        if !trackers.contains_key(&m.person_id) {
-            trackers.insert(m.person_id, (GestureTracker::new(model.features.clone())?, f64::NEG_INFINITY));
-        }
-        let Some((tr, last)) = trackers.get_mut(&m.person_id) else { continue };
+        let (tr, last) = match trackers.entry(m.person_id) {
+            std::collections::btree_map::Entry::Occupied(o) => o.into_mut(),
+            std::collections::btree_map::Entry::Vacant(v) => v.insert((GestureTracker::new(model.features.clone())?, f64::NEG_INFINITY)),
+        };
         if f.stamp <= *last {
             continue;
         }

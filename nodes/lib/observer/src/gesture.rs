@@ -474,7 +474,7 @@ impl Learner {
                 }
                 if !near_label {
                     neg_counter += 1;
-                    if neg_counter % c.negative_stride == 0
+                    if neg_counter.is_multiple_of(c.negative_stride)
                         && let Some(d) = describe(&run[end + 1 - n..=end], &c.features)
                     {
                         negatives.push(d);

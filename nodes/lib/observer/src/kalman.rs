@@ -174,7 +174,7 @@ impl ConstantVelocityKf {
             return None;
         }
         let dt = stamp - self.stamp;
-        if !(dt > 0.0) || !dt.is_finite() {
+        if dt.is_nan() || dt <= 0.0 || !dt.is_finite() {
             return Some(self.estimate());
         }
         let f = transition(dt);

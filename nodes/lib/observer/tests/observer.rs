@@ -80,7 +80,7 @@ fn bad_frames_fail_closed_name_the_field_and_the_observer_recovers() {
         assert_eq!(out.state.speed_scale, 0.3, "{:?}", out.warnings);
         t += 1.0 / 120.0;
     }
-    let mut check_bad = |o: &mut Observer, m: Skeleton, field: &str| {
+    let check_bad = |o: &mut Observer, m: Skeleton, field: &str| {
         let out = o.on_skeleton(&m);
         assert!(!out.accepted);
         assert!(out.warnings.iter().any(|w| w.contains(field)), "{field}: {:?}", out.warnings);
