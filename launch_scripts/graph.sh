@@ -2,9 +2,12 @@
 # Start the cowork graph: every node a separate process, talking DDS on loopback.
 #
 #   launch_scripts/graph.sh [--rate R | --max] [--duration S] [--logs DIR] [--scene FILE]
+#                           [--execute TASK]
 #
-# Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every node cleanly.
-# Nodes run from target/release; build first with `cargo build --release --bins`.
+# The supervisor allocates TASK (default pourDrink) from the learned LTM out/kitchen.learned.schema
+# when teaching has written one, else from config/tasks/kitchen.schema; what it learns is saved
+# there again. Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every
+# node cleanly. Nodes run from target/release; build first with `cargo build --release --bins`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -12,6 +15,7 @@ rate_args=(--rate 1)
 duration_args=()
 logs=out/logs
 scene=config/scenes/kitchen.yaml
+task=pourDrink
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rate) rate_args=(--rate "$2"); shift 2 ;;
@@ -19,7 +23,8 @@ while [[ $# -gt 0 ]]; do
     --duration) duration_args=(--duration "$2"); shift 2 ;;
     --logs) logs="$2"; shift 2 ;;
     --scene) scene="$2"; shift 2 ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    --execute) task="$2"; shift 2 ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
     *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -65,7 +70,12 @@ start ds_controller $bin/ds_controller --params config/ds_controller.yaml --use-
 # Robot manager: teaching (segments, primitive database in out/primitives), execution of the
 # supervisor actions through ds_controller and the gripper, /robot_stream and /object_stream.
 start robot_manager $bin/robot_manager --params config/robot_manager.yaml --use-sim-time --database-dir out/primitives
-start attentional_supervisor $bin/attentional_supervisor --ltm config/tasks/kitchen.schema --task pourDrink --use-sim-time --save-ltm out/kitchen.learned.schema
+# A restart keeps what was taught: the learned LTM when there is one.
+learned=out/kitchen.learned.schema
+ltm=config/tasks/kitchen.schema
+[[ -f $learned ]] && ltm=$learned
+echo "supervisor: task $task from $ltm"
+start attentional_supervisor $bin/attentional_supervisor --ltm "$ltm" --task "$task" --use-sim-time --save-ltm "$learned"
 
 # Wait until any node exits (e.g. --duration reached) or a signal arrives.
 wait -n "${pids[@]}" || true
