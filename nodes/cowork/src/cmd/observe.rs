@@ -59,6 +59,13 @@ pub struct ObserveArgs {
     /// closest_link,hand_x,hand_y,hand_z,hand_vx,hand_vy,hand_vz,speed_scale,stopped`.
     #[arg(long)]
     state_csv: Option<PathBuf>,
+    /// Imitation teaching (thesis eq. 4.7): the demonstrator's right arm retargeted to robot
+    /// joint targets per skeleton frame: `stamp_s,person_id,q1..q7,elbow_x..z,wrist_x..z,residual_m`.
+    #[arg(long)]
+    retarget_csv: Option<PathBuf>,
+    /// Whose arm is retargeted (default: the first person seen).
+    #[arg(long)]
+    retarget_person: Option<u32>,
 }
 
 /// `cowork bench gestures`.
@@ -182,6 +189,21 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
     if gestures.is_none() {
         eprintln!("no gesture model: gestures are not recognised");
     }
+    let mut retarget = match &a.retarget_csv {
+        Some(p) => {
+            let q0 = cowork_robot::JointVector::from_row_slice(&[0.0, 0.5, 0.0, -1.2, 0.0, 0.6, 0.0]);
+            let r = cowork_observer::Retargeter::new(model.clone(), cowork_observer::RetargetConfig::default(), q0)?;
+            let f = std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
+            let mut w = csv::Writer::from_writer(std::io::BufWriter::new(f));
+            let mut header = vec!["stamp_s".to_owned(), "person_id".to_owned()];
+            header.extend((1..=7).map(|i| format!("q{i}")));
+            header.extend(["elbow_x", "elbow_y", "elbow_z", "wrist_x", "wrist_y", "wrist_z", "residual_m"].map(String::from));
+            w.write_record(&header)?;
+            Some((r, w, a.retarget_person))
+        }
+        None => None,
+    };
+    let base_frame = params.observer.base_frame.clone();
     let mut node = ObserverNode::new(model, params, gestures)?;
     let reader = BagReader::open(&a.bag).with_context(|| format!("opening bag {}", a.bag.display()))?;
     let create = |p: &Path| -> Result<csv::Writer<std::io::BufWriter<std::fs::File>>> {
@@ -235,6 +257,18 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
                     warnings += 1;
                     continue;
                 };
+                if let Some((r, w, person)) = retarget.as_mut() {
+                    let who = *person.get_or_insert(k.person_id);
+                    if who == k.person_id
+                        && let Ok(t) = r.retarget_message(&k, &base_frame)
+                    {
+                        let mut row = vec![format!("{:.6}", k.header.stamp.to_secs_f64()), k.person_id.to_string()];
+                        row.extend(t.joints.iter().map(|q| format!("{q:.5}")));
+                        row.extend([t.elbow_target, t.wrist_target].iter().flat_map(|p| [p.x, p.y, p.z]).map(|v| format!("{v:.4}")));
+                        row.push(format!("{:.4}", t.residual_m));
+                        w.write_record(&row)?;
+                    }
+                }
                 let out = node.on_skeleton(&k);
                 frames += 1;
                 first = first.min(k.header.stamp.to_secs_f64());
@@ -287,6 +321,9 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
     bar.finish_and_clear();
     gestures_csv.flush()?;
     if let Some(w) = state_csv.as_mut() {
+        w.flush()?;
+    }
+    if let Some((_, w, _)) = retarget.as_mut() {
         w.flush()?;
     }
     println!("{}: {frames} skeleton frames, {} states, {gestures} gestures, {warnings} warnings", a.bag.display(), node.states());
