@@ -73,6 +73,11 @@ pub struct LearnArgs {
     /// Write the segments and errors as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write every NOA's demonstration and our DMP rollout (object frame, 100 Hz) as
+    /// `<key>.demo.csv` / `<key>.ours.csv` (`t,x,y,z,qw,qx,qy,qz`) into this directory, for the
+    /// movement_primitives cross-check.
+    #[arg(long)]
+    export: Option<PathBuf>,
     #[command(flatten)]
     db: DbArgs,
 }
@@ -135,7 +140,8 @@ fn list(a: &DbArgs) -> Result<()> {
     println!("{} — robot {}, {} primitives, next label number {}", path.display(), db.robot, db.primitives.len(), db.next_index);
     println!("{:<10} {:<16} {:<13} {:<7} {:>7} {:>8}  source", "key", "label", "kind", "object", "samples", "time_s");
     let mut all: Vec<&Primitive> = db.primitives.values().collect();
-    all.sort_by(|x, y| x.source.start_s.total_cmp(&y.source.start_s).then(x.id.cmp(&y.id)));
+    let number = |p: &Primitive| p.id.trim_start_matches(|c: char| c.is_ascii_alphabetic()).parse::<u32>().unwrap_or(u32::MAX);
+    all.sort_by(|x, y| x.source.start_s.total_cmp(&y.source.start_s).then(number(x).cmp(&number(y))));
     for p in all {
         println!(
             "{:<10} {:<16} {:<13} {:<7} {:>7} {:>8.2}  {} [{:.2}, {:.2}] s",
@@ -304,6 +310,9 @@ fn learn(a: &LearnArgs) -> Result<()> {
             "reproduction": err,
         }));
     }
+    if let Some(dir) = &a.export {
+        export(dir, manager.learned())?;
+    }
     if let Some(j) = &a.json {
         let doc = serde_json::json!({ "bag": name, "segments": rows, "log": log });
         std::fs::write(j, serde_json::to_string_pretty(&doc)? + "\n").with_context(|| format!("cannot write {}", j.display()))?;
@@ -314,6 +323,39 @@ fn learn(a: &LearnArgs) -> Result<()> {
         }
         manager.database().save(&path)?;
         println!("\nsaved {} primitives to {}", manager.database().primitives.len(), path.display());
+    }
+    Ok(())
+}
+
+fn export(dir: &Path, learned: &[(cowork_manager::Segment, Primitive)]) -> Result<()> {
+    use std::fmt::Write as _;
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let row = |t: f64, p: &nalgebra::Vector3<f64>, q: &nalgebra::UnitQuaternion<f64>| {
+        format!("{t:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e}\n", p.x, p.y, p.z, q.w, q.i, q.j, q.k)
+    };
+    for (seg, p) in learned {
+        let (Some(d), Some(o)) = (&p.dmp, &p.orientation_dmp) else { continue };
+        let header = "t,x,y,z,qw,qx,qy,qz\n";
+        let mut demo = String::from(header);
+        let t0 = seg.samples.first().map_or(0.0, |s| s.0);
+        for (t, pose) in &seg.samples {
+            let local = seg.frame.inverse() * pose;
+            demo.push_str(&row(t - t0, &local.translation.vector, &local.rotation));
+        }
+        let dt = 0.01;
+        let tr = d.rollout(None, None, 1.0, dt, (d.duration / dt).round() as usize, 0.0)?;
+        let qs = o.rollout(None, None, 1.0, dt)?;
+        let mut ours = String::from(header);
+        for (k, q) in qs.iter().enumerate().take(tr.len()) {
+            let x = nalgebra::Vector3::new(tr.pos[3 * k], tr.pos[3 * k + 1], tr.pos[3 * k + 2]);
+            ours.push_str(&row(k as f64 * dt, &x, q));
+        }
+        let mut meta = String::new();
+        let _ = writeln!(meta, "{{\"label\": \"{}\", \"n_basis\": {}, \"stiffness\": {}, \"damping\": {}, \"duration\": {}}}", p.label, d.basis.centers.len(), d.stiffness, d.damping, d.duration);
+        for (name, text) in [("demo.csv", demo), ("ours.csv", ours), ("json", meta)] {
+            let f = dir.join(format!("{}.{name}", p.id));
+            std::fs::write(&f, text).with_context(|| format!("cannot write {}", f.display()))?;
+        }
     }
     Ok(())
 }

@@ -39,6 +39,29 @@ pub struct ManagerConfig {
     pub gripper_timeout_s: f64,
     /// World state older than this cannot start an action (the object pose is unknown), s.
     pub world_stale_s: f64,
+    /// How a NOA is executed: `stream` — the manager rolls out both DMPs (position and
+    /// orientation) and streams the poses as linear-DS goals (thesis Sec. 5.2.1: "the RM
+    /// generates a set of Cartesian poses … sent to the low-level robot controller");
+    /// `controller` — one `KIND_DMP` command (ds_controller runs the position DMP, the
+    /// orientation goes straight to the goal's).
+    pub noa_execution: NoaExecution,
+    /// Streaming: a new goal every this many seconds of the rollout, s.
+    pub stream_period_s: f64,
+    /// Streaming: gain of each linear-DS goal, 1/s.
+    pub stream_gain: f64,
+    /// Streaming: the reference advances only while the tool is within this distance of it, m
+    /// (a slowed or stopped robot is waited for, not left behind).
+    pub stream_tracking_m: f64,
+}
+
+/// See [`ManagerConfig::noa_execution`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoaExecution {
+    /// Poses streamed by the manager.
+    Stream,
+    /// One DMP command to ds_controller.
+    Controller,
 }
 
 impl Default for ManagerConfig {
@@ -59,6 +82,10 @@ impl Default for ManagerConfig {
             action_timeout_s: 120.0,
             gripper_timeout_s: 3.0,
             world_stale_s: 0.5,
+            noa_execution: NoaExecution::Stream,
+            stream_period_s: 0.05,
+            stream_gain: 8.0,
+            stream_tracking_m: 0.03,
         }
     }
 }
@@ -81,6 +108,9 @@ impl ManagerConfig {
             ("action_timeout_s", self.action_timeout_s, 0.0),
             ("gripper_timeout_s", self.gripper_timeout_s, 0.0),
             ("world_stale_s", self.world_stale_s, 0.0),
+            ("stream_period_s", self.stream_period_s, 0.0),
+            ("stream_gain", self.stream_gain, 0.0),
+            ("stream_tracking_m", self.stream_tracking_m, 0.0),
         ] {
             if !(v.is_finite() && v > lo && (lo >= 0.0 || v >= 0.0)) {
                 return bad(field, v.to_string(), "must be finite and positive (non-negative for the motion thresholds)");

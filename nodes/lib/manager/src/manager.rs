@@ -3,7 +3,7 @@
 
 use nalgebra::Isometry3;
 
-use crate::config::{ManagerConfig, WORLD};
+use crate::config::{ManagerConfig, NoaExecution, WORLD};
 use crate::database::Database;
 use crate::label::Label;
 use crate::primitive::{MotionPlan, Primitive};
@@ -158,6 +158,19 @@ struct Running {
     object: String,
     started: f64,
     motion_id: Option<u32>,
+    stream: Option<Stream>,
+}
+
+/// A NOA being streamed: the rolled-out poses and how far the reference is.
+#[derive(Debug, Clone, PartialEq)]
+struct Stream {
+    poses: Vec<(f64, Isometry3<f64>)>,
+    /// Reference time along the rollout, s.
+    t_ref: f64,
+    /// Index of the last goal sent.
+    sent: usize,
+    /// Time of the last world report used to advance, s.
+    last_t: f64,
 }
 
 /// Spoken words the manager understands.
@@ -286,6 +299,7 @@ impl Manager {
         }
         self.world = Some(world);
         self.flush_teaching(now, out);
+        self.stream_step(out);
         // A gripper action is done when the simulator reports it.
         let Some(cur) = self.current.clone() else { return };
         let (Some(cmd), Some(w)) = (cur.gripper, self.world.as_ref()) else { return };
@@ -479,6 +493,7 @@ impl Manager {
             object: WORLD.to_owned(),
             started: now.t,
             motion_id: None,
+            stream: None,
         };
         let label = match Label::parse(&a.label) {
             Ok(l) => l,
@@ -562,6 +577,22 @@ impl Manager {
                 }
             }
         };
+        if self.cfg.noa_execution == NoaExecution::Stream
+            && run.kind == ActionKind::Noa
+            && let Some(p) = run.primitive.as_ref()
+        {
+            let poses = match p.rollout_poses(&pose, &world.tool, 0.01) {
+                Ok(Some(poses)) if !poses.is_empty() => poses,
+                Ok(_) => return self.fail(&run, "the NOA has no DMP to roll out".into(), out),
+                Err(e) => return self.fail(&run, e.to_string(), out),
+            };
+            let t = world.t;
+            run.stream = Some(Stream { poses, t_ref: 0.0, sent: 0, last_t: t });
+            Self::report(out, &run, false, false, String::new());
+            self.current = Some(run);
+            self.stream_step(out);
+            return;
+        }
         let plan = match run.primitive.as_ref().map(|p| p.plan(&pose)) {
             Some(Ok(p)) => p,
             Some(Err(e)) => return self.fail(&run, e.to_string(), out),
@@ -579,8 +610,48 @@ impl Manager {
         self.current = Some(run);
     }
 
+    /// Advances a streamed NOA: the reference time moves with time while the tool tracks the
+    /// last goal; the goal sent is the rollout pose one `stream_period_s` ahead of the
+    /// reference, renewed whenever the reference reaches it; the last one is the goal.
+    fn stream_step(&mut self, out: &mut Vec<Output>) {
+        let (Some(cur), Some(w)) = (self.current.as_mut(), self.world.as_ref()) else { return };
+        let Some(st) = cur.stream.as_mut() else { return };
+        let last = st.poses.len() - 1;
+        let dt = (w.t - st.last_t).max(0.0);
+        st.last_t = w.t;
+        let reference = st.poses[st.sent].1;
+        let tracking = (w.tool.translation.vector - reference.translation.vector).norm();
+        if cur.motion_id.is_some() && tracking <= self.cfg.stream_tracking_m {
+            st.t_ref += dt;
+        }
+        let period = self.cfg.stream_period_s;
+        let due = cur.motion_id.is_none()
+            || (st.sent < last && st.t_ref >= st.poses[st.sent].0 - 1e-9);
+        if !due {
+            return;
+        }
+        let k = if cur.motion_id.is_none() {
+            st.poses.partition_point(|p| p.0 < period).min(last)
+        } else {
+            st.poses.partition_point(|p| p.0 < st.t_ref + period).min(last)
+        };
+        st.sent = k.max(st.sent);
+        let goal = st.poses[st.sent].1;
+        self.motion_id += 1;
+        cur.motion_id = Some(self.motion_id);
+        out.push(Output::Motion(MotionOrder {
+            id: self.motion_id,
+            label: cur.label.clone(),
+            plan: Some(MotionPlan::Linear { goal, gain: self.cfg.stream_gain }),
+            nominal_speed: self.cfg.nominal_speed_m_s,
+        }));
+    }
+
     fn on_motion(&mut self, m: &MotionReport, out: &mut Vec<Output>) {
-        if m.command_id == 0 || m.command_id > self.motion_id {
+        if m.command_id == 0 {
+            return; // the controller's "waiting for a command"
+        }
+        if m.command_id > self.motion_id {
             return out.push(Output::Warn(format!(
                 "/motion/status for unknown command id {} (last sent {}): ignored",
                 m.command_id, self.motion_id
@@ -590,7 +661,10 @@ impl Manager {
         if cur.motion_id != Some(m.command_id) {
             return; // a status of an older command (or of a hold)
         }
+        // A streamed NOA is done when the goal of its last reference has converged.
+        let streaming_not_last = cur.stream.as_ref().is_some_and(|s| s.sent + 1 < s.poses.len());
         match m.state {
+            MotionState::Converged if streaming_not_last => {}
             MotionState::Converged => {
                 self.current = None;
                 out.push(Output::Info(format!("{} done", cur.label)));

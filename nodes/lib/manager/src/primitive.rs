@@ -250,6 +250,34 @@ impl Primitive {
     }
 }
 
+impl Primitive {
+    /// A NOA's pose trajectory in the base frame (time s from the start, pose), rolled out
+    /// open loop (step `dt` s) by both DMPs from `start` (the tool now) to the goal carried with
+    /// the object at `object_pose` — the Cartesian poses the thesis's robot manager sends to
+    /// the low-level controller (Sec. 5.2.1). `None` for primitives that are not NOAs.
+    pub fn rollout_poses(&self, object_pose: &Isometry3<f64>, start: &Isometry3<f64>, dt: f64) -> Result<Option<Vec<(f64, Isometry3<f64>)>>> {
+        let (Some(d), Some(o)) = (&self.dmp, &self.orientation_dmp) else { return Ok(None) };
+        let motion = |source| ManagerError::Motion { label: self.label.clone(), source };
+        let fail = |reason: &str| ManagerError::Learn { label: self.label.clone(), reason: reason.to_owned() };
+        let goal = self.goal.to_isometry().ok_or_else(|| fail("stored goal is not a valid pose"))?;
+        let local = object_pose.inverse() * start;
+        let x0 = local.translation.vector;
+        let g = goal.translation.vector;
+        let steps = (d.duration / dt).ceil() as usize;
+        let tr = d.rollout(Some(x0.as_slice()), Some(g.as_slice()), 1.0, dt, steps, 0.0).map_err(motion)?;
+        let qs = o.rollout(Some(local.rotation), Some(goal.rotation), 1.0, dt).map_err(motion)?;
+        let n = tr.len().min(qs.len());
+        let mut out = Vec::with_capacity(n + 1);
+        for (k, q) in qs.iter().enumerate().take(n) {
+            let p = Translation3::new(tr.pos[3 * k], tr.pos[3 * k + 1], tr.pos[3 * k + 2]);
+            out.push((k as f64 * dt, object_pose * Isometry3::from_parts(p, *q)));
+        }
+        // The rollout ends near the goal; the last reference is the goal itself.
+        out.push((n as f64 * dt, object_pose * goal));
+        Ok(Some(out))
+    }
+}
+
 /// Reproduction error of a NOA against its demonstration: the DMP rolled out from the
 /// demonstrated start to the demonstrated goal, on the demonstration's time grid.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
