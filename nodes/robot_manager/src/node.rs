@@ -269,7 +269,7 @@ impl RobotManagerNode {
                     }
                     if c.kind == MotionCommand::KIND_HOLD {
                         // Ignored by the controller, but a valid pose for any reader.
-                        c.goal = self.last_world.as_ref().map_or_else(|| pose(&Isometry3::identity()), |w| w.tool_pose.clone());
+                        c.goal = self.last_world.as_ref().map_or_else(|| pose(&Isometry3::identity()), |w| w.tool_pose);
                     }
                     outbox.motion.push(c);
                 }

@@ -93,6 +93,9 @@ pub struct Primitive {
     pub created_unix_s: u64,
 }
 
+/// A pose trajectory: (time s, pose) pairs.
+pub type PoseTrajectory = Vec<(f64, Isometry3<f64>)>;
+
 /// What executing a primitive asks of the controller.
 #[derive(Debug, Clone, PartialEq)]
 pub enum MotionPlan {
@@ -255,7 +258,7 @@ impl Primitive {
     /// open loop (step `dt` s) by both DMPs from `start` (the tool now) to the goal carried with
     /// the object at `object_pose` — the Cartesian poses the thesis's robot manager sends to
     /// the low-level controller (Sec. 5.2.1). `None` for primitives that are not NOAs.
-    pub fn rollout_poses(&self, object_pose: &Isometry3<f64>, start: &Isometry3<f64>, dt: f64) -> Result<Option<Vec<(f64, Isometry3<f64>)>>> {
+    pub fn rollout_poses(&self, object_pose: &Isometry3<f64>, start: &Isometry3<f64>, dt: f64) -> Result<Option<PoseTrajectory>> {
         let (Some(d), Some(o)) = (&self.dmp, &self.orientation_dmp) else { return Ok(None) };
         let motion = |source| ManagerError::Motion { label: self.label.clone(), source };
         let fail = |reason: &str| ManagerError::Learn { label: self.label.clone(), reason: reason.to_owned() };

@@ -235,8 +235,8 @@ fn bad_inputs_are_named_and_hold_the_robot() {
 
 #[test]
 fn failure_cases_of_segmentation_are_logged() {
-    let mut cfg = ManagerConfig::default();
-    cfg.proximity_radius_m = 0.30; // bottle and cup spheres overlap
+    // Bottle and cup spheres overlap.
+    let cfg = ManagerConfig { proximity_radius_m: 0.30, ..ManagerConfig::default() };
     let mut d = Driver::new(Manager::new(cfg, Database::new("lwr")));
     d.say("teach");
     // No motion between two gripper commands: dropped.
