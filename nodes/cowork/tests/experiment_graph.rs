@@ -97,11 +97,11 @@ fn one_short_stacking_trial_runs_in_the_graph_and_stops_it() {
             "experiment",
             "stacking-hri",
             "--seed",
-            "4",
+            "1",
             "--time-limit",
-            "5",
+            "4",
             "--rate",
-            "0.5",
+            "0.25",
             "--json",
             json.to_str().unwrap(),
             "--logs",
@@ -116,19 +116,27 @@ fn one_short_stacking_trial_runs_in_the_graph_and_stops_it() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let t = &run["trials"][0];
     assert_eq!(run["experiment"], "stacking-hri");
-    assert_eq!(t["seed"], 4);
-    // 5 simulated seconds cannot stack two blocks: failed, with the reason.
+    assert_eq!(t["seed"], 1);
+    // The person of seed 1 starts walking in at 2.8 s.
+    assert!(t["variant"]["enter_s"].as_f64().unwrap() < 3.0, "{t}");
+    // 4 simulated seconds cannot stack two blocks: failed, with the reason.
     assert_eq!(t["success"], false, "{t}");
     assert!(t["reason"].as_str().unwrap().contains("time limit"), "{t}");
-    assert!(t["duration_s"].as_f64().unwrap() >= 5.0, "{t}");
-    // The chain ran: fDED distances from the rendered depth reached the runner, the arm moved
-    // through its first motion, the person was judged against the robot geometry.
+    assert!(t["duration_s"].as_f64().unwrap() >= 4.0, "{t}");
+    // The chain ran: fDED distances from the rendered depth reached the runner, ds_controller
+    // took the first motion over DDS and reports on it, the person was judged against the
+    // robot geometry. (Whether the arm moves in 4 s depends on how fast this machine renders
+    // and runs fDED — stale distances hold it — so it is not asserted here.)
     assert!(
-        t["processing_ms"]["n"].as_u64().unwrap() >= 20,
+        t["processing_ms"]["n"].as_u64().unwrap() >= 5,
         "fDED frames: {t}"
     );
     assert_eq!(t["backend"], "cpu");
-    assert!(t["steps_done"].as_u64().unwrap() >= 1, "{t}");
+    let status = t["last_status"].as_str().unwrap();
+    assert!(
+        status.starts_with("command 1 ") || status.starts_with("command 2 "),
+        "{t}"
+    );
     assert!(t["min_distance_m"].as_f64().unwrap() > 0.0, "{t}");
     assert_eq!(t["collisions"], 0);
     nothing_left(&logs);

@@ -418,3 +418,42 @@ fn camera_frames_from_tf_static_are_bounded() {
     assert_eq!(refused, 1000 - (fded_distance::MAX_CAMERA_FRAMES - 1));
     node.on_tf_static(&tf_static(&base, &cam)).expect("a known frame still updates");
 }
+
+#[test]
+fn method_flacco_gives_sphere_distances_with_points_and_normals() {
+    let model = model();
+    let (cam, k) = kitchen_camera();
+    let mut p = params();
+    p.method = "flacco".into();
+    let mut node = FdedNode::new(model.clone(), p).expect("node");
+    node.on_camera_info(&k.to_camera_info(Time::default(), FRAME)).expect("camera info");
+    node.on_joint_state(&joint_state(&model, &Q, Time::from_secs_f64(1.0))).expect("joint state");
+    node.on_tf_static(&tf_static(&model.link_names()[0], &cam)).expect("tf_static");
+    // Flacco et al. skip depths outside 1.8–3.5 m: a sphere beside the robot, ~1.9 m away.
+    let centre = Point3::new(0.05, 0.3, 0.5);
+    let img = render(&model, &k, &cam, &Q, centre, 0.08);
+    let got = node.on_depth(&img.to_image_msg(Time::from_secs_f64(1.0), FRAME, Encoding::F32Metres)).expect("frame").clone();
+    assert_eq!(got.backend, "spheres");
+    assert_eq!(got.links.len(), model.link_count(), "one entry per link");
+    assert!(got.min_index >= 0);
+    let m = &got.links[got.min_index as usize];
+    assert!(m.valid && m.distance.is_finite());
+    // The spheres (r = 0.12 m) are fatter than the links: never further than fDED's distance.
+    let want = reference(&model, &k, &cam, &Q, &img);
+    assert!(m.distance <= want + 1e-3, "Flacco {} vs fDED {want}", m.distance);
+    // The obstacle point lies on the sphere obstacle (r = 0.08).
+    let o = Point3::new(m.obstacle_point.x, m.obstacle_point.y, m.obstacle_point.z);
+    assert!(((o - centre).norm() - 0.08).abs() < 0.01, "obstacle point {o}");
+    let n = nalgebra::Vector3::new(m.normal.x, m.normal.y, m.normal.z);
+    assert!((n.norm() - 1.0).abs() < 1e-9);
+    let r = Point3::new(m.robot_point.x, m.robot_point.y, m.robot_point.z);
+    assert!(((r - o).norm() - m.distance).abs() < 1e-6 || m.distance == 0.0, "robot point {r} at the distance");
+    // Nothing in range: every link invalid (no obstacle), not the 0.5 m default.
+    let far = img.to_image_msg(Time::from_secs_f64(1.1), FRAME, Encoding::F32Metres);
+    let far = Image { data: 9.5f32.to_le_bytes().repeat((k.width * k.height) as usize), ..far };
+    let none = node.on_depth(&far).expect("far wall").clone();
+    assert!(none.links.iter().all(|l| !l.valid) && none.min_index == -1);
+    let mut bad = params();
+    bad.method = "spheres".into();
+    assert!(bad.validate("x").unwrap_err().to_string().contains("fded or flacco"));
+}

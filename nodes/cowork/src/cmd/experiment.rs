@@ -235,8 +235,10 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
             exp.name,
             r.seed,
             if r.success { "success" } else { "FAILED" },
-            r.min_distance_m
-                .map_or("-".into(), |d| format!("{:.3} m", d)),
+            r.closest_approach.as_ref().map_or("-".into(), |c| format!(
+                "{:.3} m at {:.1} s, {} to {}",
+                c.distance_m, c.t_s, c.link, c.body_part
+            )),
             r.collisions,
             r.duration_s,
             r.wall_s,
@@ -263,6 +265,23 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
         println!("report: {}", dir.join("index.html").display());
     }
     Ok(())
+}
+
+/// `/motion/status` in words: `command 3 held: stale /fded/distances ...`.
+fn describe_status(s: &MotionStatus) -> String {
+    let state = match s.state {
+        MotionStatus::STATE_RUNNING => "running",
+        MotionStatus::STATE_CONVERGED => "converged",
+        MotionStatus::STATE_ABORTED => "aborted",
+        MotionStatus::STATE_HELD => "held",
+        _ => "unknown state",
+    };
+    let reason = if s.reason.is_empty() {
+        String::new()
+    } else {
+        format!(": {}", s.reason)
+    };
+    format!("command {} {state}{reason}", s.command_id)
 }
 
 fn metres(v: Option<f64>) -> String {
@@ -540,6 +559,7 @@ fn run_trial(
     let mut t0: Option<f64> = None;
     let mut done_at: Option<f64> = None;
     let mut next_person = 0u64;
+    let mut people_dropped = 0u64;
     let people_end = exp.people.duration();
     let person_period = 1.0 / exp.people_rate_hz;
     let mut skeleton = Skeleton::default();
@@ -589,7 +609,13 @@ fn run_trial(
             continue;
         };
         let t = now - start;
-        // The scripted people, on the simulated clock.
+        // The scripted people, on the simulated clock. A runner that fell behind (a slow build,
+        // a loaded machine) publishes only the newest frame, as a tracker that drops frames.
+        let due = (t.min(people_end) / person_period).floor() as u64;
+        if due > next_person + 2 {
+            people_dropped += due - next_person;
+            next_person = due;
+        }
         while (next_person as f64) * person_period <= t.min(people_end) {
             let tp = next_person as f64 * person_period;
             for (id, pose) in exp.people.poses_at(tp) {
@@ -632,14 +658,17 @@ fn run_trial(
         }
         if t > exp.time_limit_s {
             failure = Some(format!(
-                "time limit {} s reached at step {}/{} ({})",
+                "time limit {} s reached at step {}/{} ({}); ds_controller: {}",
                 exp.time_limit_s,
                 sequencer.finished().len() + 1,
                 sequencer.len(),
                 sequencer
                     .current()
                     .map(Sequencer::label)
-                    .unwrap_or_default()
+                    .unwrap_or_default(),
+                status
+                    .as_ref()
+                    .map_or("no /motion/status".into(), describe_status)
             ));
         }
         std::thread::sleep(Duration::from_micros(500));
@@ -704,6 +733,7 @@ fn run_trial(
         duration_s,
         wall_s: wall0.elapsed().as_secs_f64(),
         min_distance_m: judge.min_distance(),
+        closest_approach: judge.closest.clone(),
         collisions: judge.collisions,
         subtasks,
         distance: exp.distance.as_str().into(),
@@ -713,6 +743,8 @@ fn run_trial(
         speed_interaction_m_s: judge.speed_at(0.1),
         speed_switches: judge.speed_switches(),
         placements,
+        people_frames_dropped: people_dropped,
+        last_status: status.as_ref().map(describe_status),
         steps_done: sequencer.finished().len(),
         steps_total: sequencer.len(),
         gestures: judge.series.gestures.iter().map(|g| g.1.clone()).collect(),

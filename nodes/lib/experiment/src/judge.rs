@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use cowork_msgs::msg::{Gesture, HumanState, LinkDistances, Skeleton, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::Float64MultiArray;
-use cowork_people::{SkeletonPose, body_capsules};
+use cowork_people::{BODY_CAPSULE_NAMES, SkeletonPose, body_capsules};
 use cowork_robot::{DOF, JointVector, LinkPoses, RobotModel};
 use cowork_scenario::distance::LinkGeometry;
 use cowork_scenario::obstacle::Obstacle;
@@ -122,6 +122,19 @@ pub struct Subtask {
     pub success: bool,
 }
 
+/// Where the robot and the person came closest.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Approach {
+    /// Simulated time (s).
+    pub t_s: f64,
+    /// Distance (m; negative: penetration depth).
+    pub distance_m: f64,
+    /// Robot link.
+    pub link: String,
+    /// Body capsule of the person (`right_hand`, `right_forearm`, ...).
+    pub body_part: String,
+}
+
 /// Accumulates one trial.
 #[derive(Debug)]
 pub struct Judge {
@@ -141,6 +154,8 @@ pub struct Judge {
     first_world: Option<WorldState>,
     last_world: Option<WorldState>,
     last_tool: Option<(f64, Vector3<f64>)>,
+    /// Closest approach so far.
+    pub closest: Option<Approach>,
     /// The series.
     pub series: Series,
 }
@@ -162,6 +177,7 @@ impl Judge {
             first_world: None,
             last_world: None,
             last_tool: None,
+            closest: None,
             series: Series::default(),
             model,
         })
@@ -207,15 +223,9 @@ impl Judge {
         };
         let caps = body_capsules(&pose)
             .iter()
-            .map(|c| {
-                Obstacle::capsule(
-                    "person",
-                    c.a,
-                    c.b,
-                    c.radius,
-                    Vector3::zeros(),
-                    Vector3::zeros(),
-                )
+            .zip(BODY_CAPSULE_NAMES)
+            .map(|(c, name)| {
+                Obstacle::capsule(name, c.a, c.b, c.radius, Vector3::zeros(), Vector3::zeros())
             })
             .collect();
         self.people.insert(msg.person_id, (t, caps));
@@ -246,6 +256,28 @@ impl Judge {
         }
         self.in_contact = touching;
         self.series.distance.push((t, d));
+        if self.closest.as_ref().is_none_or(|c| d < c.distance_m) {
+            // Which link and body part: each capsule on its own (only at a new minimum).
+            let mut best = (f64::INFINITY, "", String::new());
+            for o in &obstacles {
+                let (_, c) = self
+                    .geometry
+                    .distances(&self.poses, std::slice::from_ref(o), t);
+                if c.human_distance < best.0 {
+                    let link = c
+                        .link
+                        .and_then(|l| self.model.link_names().get(l).cloned())
+                        .unwrap_or_default();
+                    best = (c.human_distance, o.name, link);
+                }
+            }
+            self.closest = Some(Approach {
+                t_s: t,
+                distance_m: d,
+                link: best.2,
+                body_part: best.1.to_owned(),
+            });
+        }
     }
 
     /// `/fded/distances`.

@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::judge::{PlacementResult, Stats, Subtask, THESIS_MIN_DISTANCE_M};
+use crate::judge::{Approach, PlacementResult, Stats, Subtask, THESIS_MIN_DISTANCE_M};
 use crate::plan::Variant;
 
 /// One trial.
@@ -22,6 +22,8 @@ pub struct TrialResult {
     pub wall_s: f64,
     /// True minimum robot–person distance (m); absent when the person was never seen.
     pub min_distance_m: Option<f64>,
+    /// Where and when that minimum was (link, body part).
+    pub closest_approach: Option<Approach>,
     /// Clear → touching transitions between robot and person geometry.
     pub collisions: u32,
     /// Subtasks (one per placed block).
@@ -40,6 +42,11 @@ pub struct TrialResult {
     pub speed_switches: usize,
     /// Placement checks.
     pub placements: Vec<PlacementResult>,
+    /// Skeleton frames of the scripted people not published because the runner fell behind
+    /// the simulated clock (it then publishes only the newest).
+    pub people_frames_dropped: u64,
+    /// The last `/motion/status` of ds_controller, in words (`command 3 held: stale ...`).
+    pub last_status: Option<String>,
     /// Steps finished / in the script.
     pub steps_done: usize,
     /// Steps in the script.
