@@ -45,14 +45,25 @@ fn main() -> Result<()> {
     }
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     let model = RobotModel::from_urdf_file(&params.urdf).with_context(|| format!("cannot load robot description {}", params.urdf))?;
-    let gestures = if params.gestures.is_empty() {
+    let (gestures, unusable) = if params.gestures.is_empty() {
         tracing::warn!("no gesture model (`gestures` is empty): gestures are not recognised");
-        None
+        (None, false)
     } else {
-        Some(GestureModel::from_file(params.gestures.as_ref()).with_context(|| format!("cannot load the gesture model named by `gestures` in {place}"))?)
+        match GestureModel::from_file(params.gestures.as_ref()) {
+            Ok(m) => (Some(m), false),
+            Err(e) => {
+                // Keep running (the state still slows the robot near people), fail closed: a
+                // stop gesture would go unseen, so never faster than the interaction speed.
+                tracing::error!("`gestures` in {place}: {e}; gestures are not recognised and alpha_h is capped at the interaction speed");
+                (None, true)
+            }
+        }
     };
     let use_sim_time = params.use_sim_time;
-    let observer = ObserverNode::new(model, params, gestures)?;
+    let mut observer = ObserverNode::new(model, params, gestures)?;
+    if unusable {
+        observer.without_gestures_fail_closed();
+    }
     let node = cowork_ros::start_node("human_observer", use_sim_time, args.duration)?;
     human_observer::run(node, observer, &RunOptions { duration_s: args.duration, stop: None })?;
     Ok(())

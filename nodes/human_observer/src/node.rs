@@ -135,6 +135,12 @@ impl ObserverNode {
         &self.params
     }
 
+    /// No usable gesture model (the file named by `gestures` failed to load): recognition is
+    /// off and α_h is capped at the interaction speed, since a stop gesture would go unseen.
+    pub fn without_gestures_fail_closed(&mut self) {
+        self.observer.set_speed_cap(Some(self.params.observer.mode.interaction_speed));
+    }
+
     /// The library object.
     pub fn observer(&self) -> &Observer {
         &self.observer

@@ -109,6 +109,10 @@ fn handlers_publish_every_frame_tick_when_nobody_and_fail_closed() {
     // Silent for longer than the timeout: dropped, present false.
     let s = node.on_tick(2.5).expect("tick");
     assert!(!s.present && s.speed_scale == 0.3 && !s.stopped, "{s:?}");
+    // A gesture model that failed to load: never faster than the interaction speed.
+    node.without_gestures_fail_closed();
+    let s = node.on_tick(2.6).expect("tick");
+    assert!(!s.present && s.speed_scale == 0.1, "{s:?}");
 }
 
 fn private_domain() -> u16 {

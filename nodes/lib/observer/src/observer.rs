@@ -156,6 +156,7 @@ pub struct Observer {
     untracked_at: Option<f64>,
     last_gesture: Option<GestureReport>,
     rejected: u64,
+    speed_cap: Option<f64>,
 }
 
 impl Observer {
@@ -171,6 +172,7 @@ impl Observer {
             untracked_at: None,
             last_gesture: None,
             rejected: 0,
+            speed_cap: None,
             config,
         })
     }
@@ -198,6 +200,12 @@ impl Observer {
     /// The last recognised gesture.
     pub fn last_gesture(&self) -> Option<&GestureReport> {
         self.last_gesture.as_ref()
+    }
+
+    /// Caps α_h at `cap` m/s whatever the mode (`None`: no cap), e.g. while the gesture model
+    /// could not be loaded and a stop gesture would go unseen.
+    pub fn set_speed_cap(&mut self, cap: Option<f64>) {
+        self.speed_cap = cap.filter(|c| c.is_finite()).map(|c| c.max(0.0));
     }
 
     /// Frames rejected so far.
@@ -378,6 +386,9 @@ impl Observer {
         let mut speed = self.governor.speed(present);
         if present && mode == Mode::Interaction {
             speed = speed.min(self.config.mode.interaction_speed);
+        }
+        if let Some(cap) = self.speed_cap {
+            speed = speed.min(cap);
         }
         HumanOutput {
             stamp: now,
