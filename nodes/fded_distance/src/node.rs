@@ -358,11 +358,7 @@ impl FdedNode {
                 .closest(cpu, &frame, hits)
                 .map_err(|e| skip("fded", format!("{TOPIC_DEPTH}: frame skipped: the Flacco baseline rejected it: {e}")))?;
             let dt = t0.elapsed().as_secs_f64();
-            self.times.push(dt);
-            self.frames += 1;
-            let msg = &mut self.msg;
-            msg.header = Header { stamp: image.header.stamp, frame_id: self.base_frame.clone() };
-            msg.processing_time = dt;
+            let msg = timed(&mut self.msg, &mut self.times, &mut self.frames, image, &self.base_frame, dt);
             "spheres".clone_into(&mut msg.backend);
             msg.links.resize_with(hits.len(), LinkDistance::default);
             let mut best: Option<(usize, f64)> = None;
@@ -400,11 +396,7 @@ impl FdedNode {
             .process(&frame, out)
             .map_err(|e| skip("fded", format!("{TOPIC_DEPTH}: frame skipped: fDED rejected it: {e}")))?;
         let dt = t0.elapsed().as_secs_f64();
-        self.times.push(dt);
-        self.frames += 1;
-        let msg = &mut self.msg;
-        msg.header = Header { stamp: image.header.stamp, frame_id: self.base_frame.clone() };
-        msg.processing_time = dt;
+        let msg = timed(&mut self.msg, &mut self.times, &mut self.frames, image, &self.base_frame, dt);
         if msg.backend != engine.backend_name() {
             msg.backend = engine.backend_name().to_owned();
         }
@@ -461,6 +453,22 @@ impl FdedNode {
     pub fn frames(&self) -> u64 {
         self.frames
     }
+}
+
+/// Counts a processed frame that took `dt` s and stamps `msg` with the frame's stamp.
+fn timed<'a>(
+    msg: &'a mut LinkDistances,
+    times: &mut Vec<f64>,
+    frames: &mut u64,
+    image: &Image,
+    base_frame: &str,
+    dt: f64,
+) -> &'a mut LinkDistances {
+    times.push(dt);
+    *frames += 1;
+    msg.header = Header { stamp: image.header.stamp, frame_id: base_frame.to_owned() };
+    msg.processing_time = dt;
+    msg
 }
 
 fn point(v: &nalgebra::Vector3<f64>) -> Point {
