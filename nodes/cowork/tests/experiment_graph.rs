@@ -132,11 +132,12 @@ fn one_short_stacking_trial_runs_in_the_graph_and_stops_it() {
         "fDED frames: {t}"
     );
     assert_eq!(t["backend"], "cpu");
+    // How far the task got in 4 s depends on the machine (held on stale distances or not):
+    // some command was taken and reported on, and the task did not finish.
     let status = t["last_status"].as_str().unwrap();
-    assert!(
-        status.starts_with("command 1 ") || status.starts_with("command 2 "),
-        "{t}"
-    );
+    assert!(status.starts_with("command "), "{t}");
+    let (done, total) = (t["steps_done"].as_u64().unwrap(), t["steps_total"].as_u64().unwrap());
+    assert!(done < total, "{t}");
     assert!(t["min_distance_m"].as_f64().unwrap() > 0.0, "{t}");
     assert_eq!(t["collisions"], 0);
     nothing_left(&logs);
