@@ -36,10 +36,22 @@ $cw topic echo /fded/distances -n 1 --wait 20 |
   python3 -c 'import json,sys; m=json.load(sys.stdin); i=m["min_index"]; l=m["links"][i] if i >= 0 else None
 print("  backend %s, processing %.1f ms; " % (m["backend"], 1e3 * m["processing_time"]) + ("closest: %s at %.3f m" % (l["link_name"], l["distance"]) if l else "no obstacle in view"))'
 
-echo "== joint velocity command: joint 1 at 0.3 rad/s for 2 s (re-sent at 50 Hz)"
-$cw topic pub /lwr/joint_velocity_command std_msgs/msg/Float64MultiArray \
-  '{"data": [0.3, 0, 0, 0, 0, 0, 0]}' --rate 50 --count 100 --wait 5
-joints
+echo "== the person: human_observer's /human/state (nobody tracked: present false, far speed)"
+$cw topic echo /human/state -n 1 --wait 10 |
+  python3 -c 'import json,sys; m=json.load(sys.stdin); print("  present %s, mode %s, speed scale %.2f m/s, stopped %s" % (m["present"], ["far","interaction"][m["mode"]], m["speed_scale"], m["stopped"]))'
+
+echo "== DS controller: move the tool 10 cm along +y at 0.3 m/s (/motion/command, constant speed)"
+goal=$($cw topic echo /joint_states -n 1 --wait 10 | python3 -c 'import json,sys; print(",".join(repr(v) for v in json.load(sys.stdin)["position"]))' |
+  xargs -I{} $cw robot fk --joints {} | python3 -c 'import json,sys; p=json.load(sys.stdin)["position"]; print(json.dumps({"x": p[0], "y": p[1] + 0.1, "z": p[2]}))')
+$cw topic pub /motion/command cowork_msgs/msg/MotionCommand \
+  "{\"id\": 1, \"kind\": 1, \"label\": \"demo reach\", \"goal\": {\"position\": $goal, \"orientation\": {\"w\": 1}}, \"nominal_speed\": 0.3, \"hold_orientation\": true}" --wait 5
+sleep 3
+$cw topic echo /motion/status -n 1 --wait 10 |
+  python3 -c 'import json,sys; m=json.load(sys.stdin); print("  /motion/status: command %d %s %s, %.3f m from the goal" % (m["command_id"], ["running","converged","aborted","held"][m["state"]], m["reason"], m["goal_error"]))'
+tool
+
+echo "== teaching: say teach (robot_manager lets the arm go and segments what the person shows)"
+$cw say teach
 
 echo "== kinesthetic teaching: a person pushes the tool with 20 N along -z for 1.5 s (eq. 4.6)"
 $cw topic pub /external_wrench geometry_msgs/msg/WrenchStamped \
@@ -49,6 +61,9 @@ tool
 echo "== gripper: close (grasps the nearest object within 5 cm, if any)"
 $cw topic pub /lwr/gripper_command std_msgs/msg/String '{"data": "close"}' --wait 5
 grep -h "gripper" "$logs/lwr_sim.log" | tail -n 1 | sed 's/^/  lwr_sim: /'
+
+$cw say done
+grep -h "segment\|teach" "$logs/robot_manager.log" | tail -n 3 | sed 's/^/  robot_manager: /'
 
 echo "== a bad command (6 values) is rejected and the robot is held"
 $cw topic pub /lwr/joint_velocity_command std_msgs/msg/Float64MultiArray '{"data": [1, 1, 1, 1, 1, 1]}' --wait 5

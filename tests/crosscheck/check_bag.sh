@@ -65,7 +65,7 @@ for store in ros2_humble ros2_jazzy; do
     || { echo "FAIL: cowork fded run on the rosbags bag"; cat "$work/$store.fded.log"; exit 1; }
   frames=$(( $(wc -l < "$work/$store.fded.csv") - 1 ))
   [[ $frames -ge 1 ]] || { echo "FAIL: no depth frame computed from the rosbags bag"; cat "$work/$store.fded.log"; exit 1; }
-  echo "  cowork fded run: $frames frames from the $store bag"
+  echo "  cowork fded run: $frames result rows (per frame and link) from the $store bag"
 done
 "$VENV/bin/python" tests/crosscheck/check_bag_rosbags.py write-bad "$work/bad"
 "$target/release/examples/bag_to_json" "$work/bad"/*.mcap > "$work/bad.jsonl" 2>&1 || true

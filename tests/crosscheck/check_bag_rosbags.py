@@ -60,7 +60,12 @@ def write(directory, store, expect):
             t = 2_000_000_000 + k * 33_333_333
             hdr = Header(stamp=Time(sec=t // 10**9, nanosec=t % 10**9), frame_id="camera_depth_optical_frame")
             roi = T["sensor_msgs/msg/RegionOfInterest"](x_offset=k, y_offset=1, height=2, width=3, do_rectify=k % 2 == 0)
-            put("/camera/depth/camera_info", t, T["sensor_msgs/msg/CameraInfo"](
+            # The arm's joint state first: a depth frame is computed at the joint state of its time.
+            put("/joint_states", t, T["sensor_msgs/msg/JointState"](
+                header=Header(stamp=hdr.stamp, frame_id=""), name=[f"lwr_joint_{j}" for j in range(1, 8)],
+                position=np.array([0.1 * k - 0.3 * j for j in range(7)]), velocity=np.array([1e-3 * j * k for j in range(7)]),
+                effort=np.array([], dtype=np.float64)))
+            put("/camera/depth/camera_info", t + 1, T["sensor_msgs/msg/CameraInfo"](
                 header=hdr, height=H, width=W, distortion_model="plumb_bob",
                 d=np.array([0.1, -0.01, 0.0, 0.0, 0.001 * k]),
                 k=np.array([525.0, 0, 3.5, 0, 525.0, 2.5, 0, 0, 1]),
@@ -68,19 +73,17 @@ def write(directory, store, expect):
                 p=np.array([525.0, 0, 3.5, 0, 0, 525.0, 2.5, 0, 0, 0, 1, 0]),
                 binning_x=0, binning_y=0, roi=roi))
             depth = (0.5 + 0.01 * np.arange(W * H, dtype=np.float32) + 0.25 * k).astype("<f4")
-            put("/camera/depth/image_raw", t + 1, T["sensor_msgs/msg/Image"](
+            put("/camera/depth/image_raw", t + 3, T["sensor_msgs/msg/Image"](
                 header=hdr, height=H, width=W, encoding="32FC1", is_bigendian=0, step=W * 4,
                 data=np.frombuffer(depth.tobytes(), dtype=np.uint8)))
             tf = T["geometry_msgs/msg/TransformStamped"](
-                header=Header(stamp=hdr.stamp, frame_id="lwr_base_link"), child_frame_id=f"lwr_link_{k}",
+                # The camera in the base frame (optical z along base -x, looking at the arm).
+                header=Header(stamp=hdr.stamp, frame_id="lwr_base_link"), child_frame_id="camera_depth_optical_frame",
                 transform=T["geometry_msgs/msg/Transform"](
-                    translation=T["geometry_msgs/msg/Vector3"](x=0.1 * k, y=0.0, z=0.31),
-                    rotation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+                    translation=T["geometry_msgs/msg/Vector3"](x=1.9 + 0.01 * k, y=0.0, z=0.5),
+                    rotation=T["geometry_msgs/msg/Quaternion"](x=0.5, y=-0.5, z=0.5, w=-0.5)))
             put("/tf", t + 2, T["tf2_msgs/msg/TFMessage"](transforms=[tf]))
-            put("/joint_states", t + 3, T["sensor_msgs/msg/JointState"](
-                header=Header(stamp=hdr.stamp, frame_id=""), name=[f"lwr_a{j}_joint" for j in range(1, 8)],
-                position=np.array([0.1 * k - 0.3 * j for j in range(7)]), velocity=np.array([1e-3 * j * k for j in range(7)]),
-                effort=np.array([], dtype=np.float64)))
+    rows.sort(key=lambda r: r["log_time_ns"])  # the order a reader yields them
     with open(expect, "w") as f:
         for r in rows:
             f.write(json.dumps(r) + "\n")
