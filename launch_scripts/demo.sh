@@ -47,7 +47,8 @@ $cw topic pub /motion/command cowork_msgs/msg/MotionCommand \
   "{\"id\": 1, \"kind\": 1, \"label\": \"demo reach\", \"goal\": {\"position\": $goal, \"orientation\": {\"w\": 1}}, \"nominal_speed\": 0.3, \"hold_orientation\": true}" --wait 5
 sleep 3
 $cw topic echo /motion/status -n 1 --wait 10 |
-  python3 -c 'import json,sys; m=json.load(sys.stdin); print("  /motion/status: command %d %s %s, %.3f m from the goal" % (m["command_id"], ["running","converged","aborted","held"][m["state"]], m["reason"], m["goal_error"]))'
+  python3 -c 'import json,sys; m=json.load(sys.stdin); e=m["goal_error"]
+print("  /motion/status: command %d %s %s" % (m["command_id"], ["running","converged","aborted","held"][m["state"]], m["reason"]) + ("" if e is None else ", %.3f m from the goal" % e))'
 tool
 
 echo "== teaching: say teach (robot_manager lets the arm go and segments what the person shows)"
