@@ -1,7 +1,7 @@
 //! [`FdedNode`]: the node's state and its per-message handlers, with no I/O.
 
 use std::collections::{HashMap, VecDeque};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use anyhow::Result;
 use cowork_depth::{DepthImage, Intrinsics};
@@ -41,40 +41,21 @@ fn skip(kind: &'static str, message: String) -> Skip {
     Skip { kind, message }
 }
 
-/// Logs each kind of warning at most once per period, counting the ones it held back.
+/// Logs each kind of warning at most once per period, counting the ones it held back
+/// ([`cowork_ros::RateLimiter`]).
 #[derive(Debug)]
-pub struct RateLimitedWarnings {
-    period: Duration,
-    last: HashMap<&'static str, (Instant, u64)>,
-}
+pub struct RateLimitedWarnings(cowork_ros::RateLimiter);
 
 impl RateLimitedWarnings {
     /// A limiter with `period_s` seconds between two warnings of the same kind.
     pub fn new(period_s: f64) -> Self {
-        Self { period: cowork_ros::duration_s(period_s), last: HashMap::new() }
+        Self(cowork_ros::RateLimiter::new(period_s))
     }
 
     /// Logs `skip` unless one of its kind was logged within the period; returns whether it
     /// was logged.
     pub fn warn(&mut self, skip: &Skip) -> bool {
-        let now = Instant::now();
-        match self.last.get_mut(skip.kind) {
-            Some((at, held)) if now.duration_since(*at) < self.period => {
-                *held += 1;
-                false
-            }
-            Some((at, held)) => {
-                tracing::warn!("{} ({} more like it since the last warning)", skip.message, held);
-                *at = now;
-                *held = 0;
-                true
-            }
-            None => {
-                tracing::warn!("{}", skip.message);
-                self.last.insert(skip.kind, (now, 0));
-                true
-            }
-        }
+        self.0.warn(skip.kind, &skip.message)
     }
 }
 

@@ -1,8 +1,5 @@
 //! [`ObserverNode`]: the node's state and one handler per message, no I/O.
 
-use std::collections::HashMap;
-use std::time::{Duration as WallDuration, Instant};
-
 use anyhow::Result;
 use cowork_msgs::builtin_interfaces::{Duration, Time};
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion, Vector3 as MsgVector3};
@@ -27,38 +24,20 @@ pub struct Warning {
     pub message: String,
 }
 
-/// Logs each kind of warning at most once per period, counting the ones held back.
+/// Logs each kind of warning at most once per period, counting the ones held back
+/// ([`cowork_ros::RateLimiter`], shared with the other nodes).
 #[derive(Debug)]
-pub struct Warnings {
-    period: WallDuration,
-    last: HashMap<String, (Instant, u64)>,
-}
+pub struct Warnings(cowork_ros::RateLimiter);
 
 impl Warnings {
     /// At most one warning of a kind per `period_s` (wall clock).
     pub fn new(period_s: f64) -> Self {
-        Self { period: WallDuration::from_secs_f64(period_s), last: HashMap::new() }
+        Self(cowork_ros::RateLimiter::new(period_s))
     }
 
     /// Logs `w` unless one of its kind was logged within the period; returns whether it was.
     pub fn warn(&mut self, w: &Warning) -> bool {
-        let now = Instant::now();
-        match self.last.get_mut(&w.kind) {
-            Some((at, held)) if now.duration_since(*at) < self.period => {
-                *held += 1;
-                false
-            }
-            Some((at, held)) => {
-                tracing::warn!("{} ({} more like it since the last warning)", w.message, held);
-                (*at, *held) = (now, 0);
-                true
-            }
-            None => {
-                tracing::warn!("{}", w.message);
-                self.last.insert(w.kind.clone(), (now, 0));
-                true
-            }
-        }
+        self.0.warn(&w.kind, &w.message)
     }
 }
 

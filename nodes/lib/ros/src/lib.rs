@@ -115,3 +115,62 @@ mod text_prefix_tests {
         assert!(cut.len() < 64);
     }
 }
+
+/// Logs each kind of warning at most once per period (wall clock), counting the ones held
+/// back; the one limiter the nodes share. At most [`RateLimiter::MAX_KINDS`] kinds are
+/// remembered (the oldest is forgotten), so kinds built from peer data cannot grow it.
+#[derive(Debug)]
+pub struct RateLimiter {
+    period: std::time::Duration,
+    last: std::collections::HashMap<String, (std::time::Instant, u64)>,
+}
+
+impl RateLimiter {
+    /// Kinds remembered at most.
+    pub const MAX_KINDS: usize = 256;
+
+    /// At most one warning of a kind per `period_s` seconds.
+    pub fn new(period_s: f64) -> Self {
+        Self { period: duration_s(period_s), last: std::collections::HashMap::new() }
+    }
+
+    /// Logs `message` unless a warning of `kind` was logged within the period; returns
+    /// whether it was logged.
+    pub fn warn(&mut self, kind: &str, message: &str) -> bool {
+        let now = std::time::Instant::now();
+        if let Some((at, held)) = self.last.get_mut(kind) {
+            if now.duration_since(*at) < self.period {
+                *held += 1;
+                return false;
+            }
+            tracing::warn!("{message} ({held} more like it since the last warning)");
+            (*at, *held) = (now, 0);
+            return true;
+        }
+        if self.last.len() >= Self::MAX_KINDS
+            && let Some(oldest) = self.last.iter().min_by_key(|(_, (t, _))| *t).map(|(k, _)| k.clone())
+        {
+            self.last.remove(&oldest);
+        }
+        tracing::warn!("{message}");
+        self.last.insert(kind.to_owned(), (now, 0));
+        true
+    }
+}
+
+#[cfg(test)]
+mod rate_limiter_tests {
+    use super::RateLimiter;
+
+    #[test]
+    fn one_warning_per_kind_per_period_and_bounded_kinds() {
+        let mut l = RateLimiter::new(3600.0);
+        assert!(l.warn("a", "first"));
+        assert!(!l.warn("a", "again"));
+        assert!(l.warn("b", "other kind"));
+        for i in 0..1000 {
+            l.warn(&format!("k{i}"), "flood");
+        }
+        assert!(l.last.len() <= RateLimiter::MAX_KINDS);
+    }
+}
