@@ -310,10 +310,11 @@ impl FdedNode {
                 ),
             ));
         }
-        self.depth
+        let valid = self
+            .depth
             .read_image_msg(image)
             .map_err(|e| skip("image", format!("{TOPIC_DEPTH}: frame skipped: {e}")))?;
-        let (valid, total) = (self.depth.valid_count(), self.depth.data.len());
+        let total = self.depth.data.len();
         if (valid as f64) < self.params.min_valid_fraction * total as f64 {
             return Err(skip(
                 "blind",

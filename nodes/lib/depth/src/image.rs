@@ -138,8 +138,10 @@ impl DepthImage {
     }
 
     /// Like [`from_image_msg`](Self::from_image_msg) but into `self`, reusing its buffer (no
-    /// allocation once it is large enough). On error `self` is left unchanged.
-    pub fn read_image_msg(&mut self, msg: &Image) -> Result<()> {
+    /// allocation once it is large enough). On error `self` is left unchanged. Returns the
+    /// number of pixels with a return ([`valid_count`](Self::valid_count), counted while
+    /// converting, so a caller checking for a blind camera makes no second pass).
+    pub fn read_image_msg(&mut self, msg: &Image) -> Result<usize> {
         let encoding = Encoding::parse(&msg.encoding)?;
         if msg.width == 0 || msg.height == 0 {
             return Err(Error::ZeroSize { width: msg.width, height: msg.height });
@@ -163,22 +165,29 @@ impl DepthImage {
         self.data.clear();
         self.data.reserve(msg.width as usize * msg.height as usize);
         let row_bytes = min as usize;
+        let mut valid = 0usize;
         for row in msg.data.chunks_exact(msg.step as usize) {
             let row = &row[..row_bytes];
             match encoding {
                 Encoding::F32Metres => self.data.extend(row.chunks_exact(4).map(|b| {
                     let b = [b[0], b[1], b[2], b[3]];
                     let d = if big { f32::from_be_bytes(b) } else { f32::from_le_bytes(b) };
-                    if d.is_finite() && d > 0.0 { d } else { 0.0 }
+                    if d.is_finite() && d > 0.0 {
+                        valid += 1;
+                        d
+                    } else {
+                        0.0
+                    }
                 })),
                 Encoding::U16Millimetres => self.data.extend(row.chunks_exact(2).map(|b| {
                     let b = [b[0], b[1]];
                     let mm = if big { u16::from_be_bytes(b) } else { u16::from_le_bytes(b) };
+                    valid += usize::from(mm > 0);
                     (f64::from(mm) / 1000.0) as f32
                 })),
             }
         }
-        Ok(())
+        Ok(valid)
     }
 
     /// The image as a `sensor_msgs/Image` in `encoding`, little-endian, no row padding.
@@ -427,5 +436,31 @@ mod tests {
         let hi = turbo(0.95);
         assert!(lo[2] > lo[0], "0 is blue: {lo:?}");
         assert!(hi[0] > hi[2], "1 is red: {hi:?}");
+    }
+}
+
+#[cfg(test)]
+mod count_tests {
+    use super::*;
+
+    /// The count returned while decoding is the one `valid_count` finds afterwards, for both
+    /// encodings, with NaN, zero and negative depths as no return.
+    #[test]
+    fn read_image_msg_counts_the_returns_it_decodes() {
+        let mut img = DepthImage::new(4, 3);
+        for (i, d) in img.data.iter_mut().enumerate() {
+            *d = [0.0, 1.5, 0.0, 2.25][i % 4];
+        }
+        for encoding in [Encoding::F32Metres, Encoding::U16Millimetres] {
+            let msg = img.to_image_msg(Time::default(), "cam", encoding);
+            let mut back = DepthImage::default();
+            let n = back.read_image_msg(&msg).expect("decodes");
+            assert_eq!(n, back.valid_count());
+            assert_eq!(n, 6);
+        }
+        let mut nan = img.to_image_msg(Time::default(), "cam", Encoding::F32Metres);
+        nan.data = [f32::NAN, -1.0, 0.5, f32::INFINITY].iter().cycle().take(12).flat_map(|v| v.to_le_bytes()).collect();
+        let mut back = DepthImage::default();
+        assert_eq!(back.read_image_msg(&nan).expect("decodes"), 3);
     }
 }
