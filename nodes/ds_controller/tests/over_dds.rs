@@ -334,7 +334,9 @@ fn watchdog_stops_on_lost_distances_and_resumes() {
     // Kill the distance stream (the human state keeps coming).
     let lost_at = g.client.sim_time();
     let speed_at_loss = g.client.max_speed();
-    let bound = 0.1;
+    let params: Params =
+        cowork_ros::params::load(&root().join("config/ds_controller.yaml"), "ds_controller").expect("params");
+    let bound = params.controller.stale_after_s;
     let mut held_at = None;
     let mut stopped_at = None;
     let end = Instant::now() + Duration::from_secs(5);

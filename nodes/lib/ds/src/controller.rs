@@ -9,6 +9,7 @@ use crate::modulation::{
     weighted_eigenvalues, weighted_modulation_matrix_in_basis,
 };
 use crate::primitive::{LearnedField, Primitive};
+use crate::safety::{LinkSafety, SafetyConfig, SafetyReport};
 use crate::scaling::{HumanState, ScalingConfig};
 use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
@@ -49,7 +50,11 @@ impl Default for ModulationConfig {
 pub struct ControllerConfig {
     /// Control period dt (s): 1 ms (1 kHz).
     pub period_s: f64,
-    /// Distance or human data older than this stop the robot (s).
+    /// Distance or human data older than this slow the motion: α_h is scaled by
+    /// `(stale_after_s − age)/(stale_after_s − slow_after_s)`, reaching 0 at `stale_after_s`
+    /// (s, in (0, `stale_after_s`]; equal: no slow zone). Ages come from the data's stamps.
+    pub slow_after_s: f64,
+    /// Distance or human data older than this stop the robot (s): brake and hold.
     pub stale_after_s: f64,
     /// Data stamped more than this in the controller's future stop the robot too (s): the
     /// clock went back, or the sender's clock is not the controller's.
@@ -72,13 +77,16 @@ pub struct ControllerConfig {
     pub escape: EscapeConfig,
     /// IK and saturation.
     pub ik: IkConfig,
+    /// Link-distance damper above the end-effector task (ours; see [`crate::safety`]).
+    pub safety: SafetyConfig,
 }
 
 impl Default for ControllerConfig {
     fn default() -> Self {
         Self {
             period_s: 0.001,
-            stale_after_s: 0.1,
+            slow_after_s: 0.1,
+            stale_after_s: 0.3,
             future_tolerance_s: 0.02,
             brake_deceleration: 10.0,
             resume_time_s: 0.2,
@@ -89,6 +97,7 @@ impl Default for ControllerConfig {
             modulation: ModulationConfig::default(),
             escape: EscapeConfig::default(),
             ik: IkConfig::default(),
+            safety: SafetyConfig::default(),
         }
     }
 }
@@ -120,6 +129,12 @@ impl ControllerConfig {
             c.stale_after_s,
             c.stale_after_s > 0.0,
             "must be > 0 s",
+        )?;
+        check(
+            "slow_after_s",
+            c.slow_after_s,
+            c.slow_after_s > 0.0 && c.slow_after_s <= c.stale_after_s,
+            "must be in (0, stale_after_s] s",
         )?;
         check(
             "future_tolerance_s",
@@ -242,6 +257,50 @@ impl ControllerConfig {
             k.position_margin,
             k.position_margin >= 0.0,
             "must be ≥ 0 rad",
+        )?;
+        let f = &c.safety;
+        check(
+            "safety.stop_distance",
+            f.stop_distance,
+            f.stop_distance > 0.0,
+            "must be > 0 m",
+        )?;
+        check(
+            "safety.slow_distance",
+            f.slow_distance,
+            f.slow_distance > f.stop_distance,
+            "must exceed safety.stop_distance (m)",
+        )?;
+        check(
+            "safety.approach_speed",
+            f.approach_speed,
+            f.approach_speed > 0.0,
+            "must be > 0 m/s",
+        )?;
+        check(
+            "safety.retreat_gain",
+            f.retreat_gain,
+            f.retreat_gain >= 0.0,
+            "must be ≥ 0 1/s",
+        )?;
+        check(
+            "safety.max_obstacle_speed",
+            f.max_obstacle_speed,
+            f.max_obstacle_speed >= 0.0,
+            "must be ≥ 0 m/s",
+        )?;
+        check("safety.damping", f.damping, f.damping >= 0.0, "must be ≥ 0")?;
+        check(
+            "safety.hand_radius",
+            f.hand_radius,
+            f.hand_radius >= 0.0,
+            "must be ≥ 0 m",
+        )?;
+        check(
+            "safety.iterations",
+            f64::from(f.iterations),
+            (1..=20).contains(&f.iterations),
+            "must be in 1..=20",
         )?;
         Ok(())
     }
@@ -395,6 +454,10 @@ pub struct Diagnostics {
     pub saturation: Saturation,
     /// Link-task velocities.
     pub ik: IkReport,
+    /// Factor (0, 1] of α_h from the age of the distance / human data (watchdog slow zone).
+    pub age_scale: f64,
+    /// What the link-distance damper did.
+    pub safety: SafetyReport,
 }
 
 impl Default for Diagnostics {
@@ -412,6 +475,11 @@ impl Default for Diagnostics {
             escaping: false,
             saturation: Saturation::default(),
             ik: IkReport::default(),
+            age_scale: 1.0,
+            safety: SafetyReport {
+                distance_m: f64::INFINITY,
+                ..SafetyReport::default()
+            },
         }
     }
 }
@@ -450,6 +518,7 @@ pub struct DsController {
     ee_first_link: usize,
     poses: LinkPoses,
     ik: Ik,
+    safety: LinkSafety,
     escape: Escape,
     last_qdot: JointVector,
     command_id: Option<u32>,
@@ -475,6 +544,7 @@ impl DsController {
             ee_first_link,
             poses: LinkPoses::new(),
             ik: Ik::new(cfg.ik),
+            safety: LinkSafety::new(cfg.safety),
             escape: Escape::new(),
             last_qdot: JointVector::zeros(),
             command_id: None,
@@ -577,7 +647,16 @@ impl DsController {
             1.0
         };
         self.ramp = (self.ramp + ramp_rate).min(1.0);
-        let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp;
+        // Watchdog slow zone: the older the newest distances / human state, the slower.
+        let age = (input.time - input.distances.stamp).max(input.time - input.human.stamp);
+        let age_scale = if age <= self.cfg.slow_after_s {
+            1.0
+        } else {
+            ((self.cfg.stale_after_s - age) / (self.cfg.stale_after_s - self.cfg.slow_after_s))
+                .clamp(0.0, 1.0)
+        };
+        d.age_scale = age_scale;
+        let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp * age_scale;
         d.alpha = alpha;
         let f = match (&cmd.primitive, field) {
             (Primitive::Learned, Some(field)) => {
@@ -667,6 +746,23 @@ impl DsController {
             &posture,
             &mut d.ik,
         );
+        // Safety above the end-effector task: no link closes on an obstacle faster than the
+        // damper allows (the end-effector links too unless the command turned their avoidance
+        // off).
+        let ee_safety = self.cfg.safety.end_effector
+            && self.cfg.modulation.end_effector
+            && cmd.end_effector_avoidance;
+        let to = if ee_safety { dist.count } else { self.ee_first_link };
+        d.safety = self.safety.apply(
+            &self.model,
+            &self.poses,
+            dist,
+            self.model.joint_link(0),
+            to,
+            (!ee_safety).then_some(&Point3::from(x)),
+            input.time - dist.stamp,
+            &mut qdot,
+        );
         let k = &self.cfg.ik;
         d.saturation = saturate(
             self.model.joint_limits(),
@@ -681,7 +777,7 @@ impl DsController {
         let converged = goal_error <= self.cfg.goal_tolerance_m
             && (cmd.orientation.is_none()
                 || d.orientation_error_rad <= self.cfg.orientation_tolerance_rad);
-        out.status = if alpha == 0.0 && self.ramp >= 1.0 {
+        out.status = if self.cfg.scaling.alpha(&input.human.state) == 0.0 && self.ramp >= 1.0 {
             Status::Held(HoldReason::SpeedZero)
         } else if converged {
             Status::Converged

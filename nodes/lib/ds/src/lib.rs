@@ -42,6 +42,7 @@ pub mod goal;
 pub mod ik;
 pub mod modulation;
 pub mod primitive;
+pub mod safety;
 pub mod scaling;
 
 pub use controller::{
@@ -50,4 +51,5 @@ pub use controller::{
 };
 pub use error::{Error, Fault, Result, Stream};
 pub use primitive::{FirstOrderDs, LearnedField, Primitive};
+pub use safety::{SafetyConfig, SafetyReport};
 pub use scaling::{HumanMode, HumanState};

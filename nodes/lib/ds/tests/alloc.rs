@@ -58,6 +58,22 @@ fn ten_thousand_steps_allocate_nothing() {
             500..=520 => input.command.primitive = Primitive::Hold,
             600 => input.command.id = 2,
             700..=710 => input.command.goal = Vector3::new(9.0, 0.0, 0.0),
+            // An obstacle inside the stop distance of the elbow: link-distance damper.
+            800..=850 => {
+                let elbow = model.joint_link(3);
+                let p = Point3::from(poses.get(elbow).translation.vector);
+                let n = Vector3::new(0.0, -1.0, 0.0);
+                input.distances.links[elbow] = LinkDistance {
+                    valid: true,
+                    distance: 0.05,
+                    robot_point: p,
+                    obstacle_point: p - n * 0.05,
+                    normal: n,
+                    obstacle_velocity: n * 0.5,
+                };
+            }
+            // Aging distances inside the watchdog's slow zone.
+            900..=950 => input.distances.stamp = t - 0.2,
             _ => {}
         }
         q += JointVectorStep::small(k);
@@ -66,6 +82,8 @@ fn ten_thousand_steps_allocate_nothing() {
     let mut out = ControlOutput::default();
     let mut faults = 0usize;
     let mut escapes = 0usize;
+    let mut damped = 0usize;
+    let mut slowed = 0usize;
 
     // The counter itself must see allocations, or the test could never fail.
     let before = allocations();
@@ -78,12 +96,16 @@ fn ten_thousand_steps_allocate_nothing() {
             faults += 1;
         }
         escapes += usize::from(out.diagnostics.escaping);
+        damped += usize::from(out.diagnostics.safety.active);
+        slowed += usize::from(out.diagnostics.age_scale < 1.0);
         black_box(&out);
     }
     let after = allocations();
     assert_eq!(after - before, 0, "allocations in 10 000 control steps");
     assert!(faults > 1000, "fault paths exercised: {faults}");
     assert!(escapes > 0, "escape path exercised");
+    assert!(damped > 100, "link-distance damper exercised: {damped}");
+    assert!(slowed > 100, "watchdog slow zone exercised: {slowed}");
 }
 
 /// A small deterministic joint drift so the configurations vary along the run.

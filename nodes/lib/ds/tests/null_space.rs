@@ -24,6 +24,8 @@ fn run(links: bool, sphere: Option<(Point3<f64>, f64)>) -> Run {
     let goal = x0 + Vector3::new(0.0, 0.35, 0.0);
     let mut cfg = ControllerConfig::default();
     cfg.modulation.links = links;
+    // Eq. 5.13 on its own: the link-distance damper above it is tested in tests/safety.rs.
+    cfg.safety.enabled = false;
     // The sphere is for the links; keep the end-effector DS unmodulated so both runs command
     // the same hand motion.
     cfg.modulation.end_effector = false;

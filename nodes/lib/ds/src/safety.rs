@@ -1,0 +1,229 @@
+//! Link-distance safety: a velocity damper on every moving link's distance to its closest
+//! obstacle, applied **above** the end-effector task (ours, beyond eq. 5.13).
+//!
+//! Why: eq. 5.13 avoids links only in the null space of the end-effector task. With the
+//! orientation held (Sec. 5.1.3) that is one redundant DoF, and nothing slows the arm when a
+//! link — not the end effector — closes on a person: in `cowork experiment stacking-hri` the
+//! forearm swept into a hand held on the path while the end effector kept to its DS. The thesis
+//! notes that "if collision avoidance is the most important task ... task priorities can be
+//! changed to guarantee that the collision avoidance has always priority" (Sec. 5.1.1); this is
+//! that change, in its simplest exact form.
+//!
+//! For link `l` with distance `d` (m), closest robot point `p_r`, obstacle point `p_o` and
+//! obstacle velocity `v_O` (base frame), `u = (p_r − p_o)/‖p_r − p_o‖` (the obstacle normal when
+//! the points coincide) and the distance rate is `ḋ = uᵀ(J_l q̇ − v_O)`. The damper asks
+//!
+//! ```text
+//! ḋ ≥ −a(d),   a(d) = approach_speed · clamp((d − stop)/(slow − stop), 0, 1)     (d ≥ stop)
+//!              a(d) = −retreat_gain · (stop − d)                                   (d < stop)
+//! ```
+//!
+//! i.e. the speed at which a link may approach an obstacle falls linearly from
+//! `approach_speed` at `slow_distance` to zero at `stop_distance`, and inside `stop_distance`
+//! the link must move away. Only an approaching obstacle's speed is counted (`max(uᵀv_O, 0)`,
+//! capped at `max_obstacle_speed`: a receding hand's noisy velocity never lets the arm close
+//! in), and the distance is first reduced by how far that obstacle travels while the data ages
+//! (`age · max(uᵀv_O, 0)`).
+//!
+//! Each violated constraint `jᵀq̇ ≥ b` (`j = J_lᵀu`) is met by the smallest joint-velocity change,
+//! `q̇ += j (b − jᵀq̇)/(jᵀj + λ²)`; the links are swept a few times (alternating projections onto
+//! the half-spaces). The motion along the obstacle surface is kept, only the approach is
+//! removed — with a static obstacle at `stop_distance` the arm holds rather than pushes. The
+//! later uniform speed saturation keeps every constraint whose `b ≤ 0`. Allocation-free.
+
+use cowork_robot::{JointVector, LinkPoses, MAX_LINKS, PositionJacobian, RobotModel};
+use nalgebra::Vector3;
+
+use crate::controller::Distances;
+
+/// Parameters of the link-distance damper. Distances are fDED's (link mesh points to depth
+/// pixels, m), so `stop_distance` must cover its sampling error and the latency of the chain.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SafetyConfig {
+    /// Damp link approaches at all (false: eq. 5.13 alone, as the thesis).
+    pub enabled: bool,
+    /// A link may not approach an obstacle closer than this; inside it, it retreats (m, > 0).
+    pub stop_distance: f64,
+    /// From this distance on the allowed approach speed falls to 0 at `stop_distance`
+    /// (m, > `stop_distance`).
+    pub slow_distance: f64,
+    /// Approach speed allowed at `slow_distance` (m/s, > 0).
+    pub approach_speed: f64,
+    /// Retreat speed per metre inside `stop_distance` (1/s, ≥ 0).
+    pub retreat_gain: f64,
+    /// Largest obstacle approach speed the arm follows (m/s, ≥ 0): a person's hand moves at up
+    /// to ~1.5 m/s; faster estimates are noise or a new obstacle.
+    pub max_obstacle_speed: f64,
+    /// Damp the end-effector links too (never while a command turns end-effector avoidance
+    /// off, e.g. the handover, where the hand is the goal).
+    pub end_effector: bool,
+    /// Link points within this distance of the tool point belong to the hand (m, ≥ 0): it
+    /// touches objects by design (grasp, place, the wrist right above a block), so its
+    /// approaches are left to the end-effector DS modulation; the damper guards the arm
+    /// behind it (elbow, forearm).
+    pub hand_radius: f64,
+    /// Damping λ of the projections (m/rad): bounds the joint speed asked of a link point the
+    /// joints can hardly move along `u`.
+    pub damping: f64,
+    /// Sweeps over the links (≥ 1).
+    pub iterations: u32,
+}
+
+impl Default for SafetyConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            stop_distance: 0.10,
+            slow_distance: 0.30,
+            approach_speed: 0.3,
+            retreat_gain: 2.0,
+            max_obstacle_speed: 1.5,
+            end_effector: false,
+            hand_radius: 0.12,
+            damping: 0.02,
+            iterations: 3,
+        }
+    }
+}
+
+/// What [`LinkSafety::apply`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SafetyReport {
+    /// Some constraint was active (q̇ changed).
+    pub active: bool,
+    /// Link of the largest correction.
+    pub link: Option<usize>,
+    /// Its effective distance (m, after the age extrapolation); ∞ when none.
+    pub distance_m: f64,
+    /// Largest distance-rate deficit corrected (m/s).
+    pub correction_m_s: f64,
+}
+
+/// The damper's scratch (one per controller).
+#[derive(Debug, Clone)]
+pub struct LinkSafety {
+    cfg: SafetyConfig,
+    rows: [JointVector; MAX_LINKS],
+    bounds: [f64; MAX_LINKS],
+    dist: [f64; MAX_LINKS],
+    pj: PositionJacobian,
+}
+
+impl LinkSafety {
+    /// With `cfg` (validated by the controller config).
+    pub fn new(cfg: SafetyConfig) -> Self {
+        Self {
+            cfg,
+            rows: [JointVector::zeros(); MAX_LINKS],
+            bounds: [0.0; MAX_LINKS],
+            dist: [0.0; MAX_LINKS],
+            pj: PositionJacobian::zeros(),
+        }
+    }
+
+    /// Parameters.
+    pub fn config(&self) -> &SafetyConfig {
+        &self.cfg
+    }
+
+    /// Allowed approach speed (m/s; negative: required retreat) at effective distance `d` (m).
+    pub fn allowed_approach(&self, d: f64) -> f64 {
+        let c = &self.cfg;
+        if d >= c.stop_distance {
+            c.approach_speed * ((d - c.stop_distance) / (c.slow_distance - c.stop_distance)).min(1.0)
+        } else {
+            -c.retreat_gain * (c.stop_distance - d)
+        }
+    }
+
+    /// Corrects `qdot` (rad/s) in place so that no link in `from..to` of `dist` approaches its
+    /// obstacle faster than allowed; `tool` is the tool point (m, base frame), `age_s` the age
+    /// of `dist` (s, ≥ 0), `poses` the forward kinematics at the current q. Links at or beyond
+    /// `slow_distance`, closest points within `hand_radius` of the tool (unless `from..to`
+    /// includes the end-effector links on purpose: `hand` false), invalid entries and links the
+    /// joints cannot move (zero Jacobian) are left alone.
+    #[allow(clippy::too_many_arguments)]
+    pub fn apply(
+        &mut self,
+        model: &RobotModel,
+        poses: &LinkPoses,
+        dist: &Distances,
+        from: usize,
+        to: usize,
+        tool: Option<&nalgebra::Point3<f64>>,
+        age_s: f64,
+        qdot: &mut JointVector,
+    ) -> SafetyReport {
+        let mut report = SafetyReport {
+            distance_m: f64::INFINITY,
+            ..SafetyReport::default()
+        };
+        if !self.cfg.enabled {
+            return report;
+        }
+        let c = self.cfg;
+        let age = age_s.max(0.0);
+        let to = to.min(dist.count).min(MAX_LINKS);
+        let mut n = 0usize;
+        let mut links = [0usize; MAX_LINKS];
+        for l in from..to {
+            let o = &dist.links[l];
+            if !o.valid || o.distance >= c.slow_distance + age * c.max_obstacle_speed {
+                continue;
+            }
+            if tool.is_some_and(|t| (o.robot_point - t).norm() < c.hand_radius) {
+                continue;
+            }
+            let diff: Vector3<f64> = o.robot_point - o.obstacle_point;
+            let norm = diff.norm();
+            let u = if norm > 1e-3 && o.distance > 1e-3 {
+                diff / norm
+            } else {
+                let nn = o.normal.norm();
+                if nn < 1e-9 {
+                    continue;
+                }
+                o.normal / nn
+            };
+            let closing = u.dot(&o.obstacle_velocity).clamp(0.0, c.max_obstacle_speed);
+            let d_eff = o.distance - closing * age;
+            if d_eff >= c.slow_distance {
+                continue;
+            }
+            let in_link = poses.get(l).inverse_transform_point(&o.robot_point);
+            model.position_jacobian(poses, l, &in_link, &mut self.pj);
+            let j: JointVector = self.pj.transpose() * u;
+            if j.norm_squared() < 1e-12 {
+                continue;
+            }
+            self.rows[n] = j;
+            self.bounds[n] = closing - self.allowed_approach(d_eff);
+            self.dist[n] = d_eff;
+            links[n] = l;
+            n += 1;
+        }
+        let lambda2 = c.damping * c.damping;
+        for _ in 0..c.iterations.max(1) {
+            let mut changed = false;
+            for k in 0..n {
+                let j = &self.rows[k];
+                let deficit = self.bounds[k] - j.dot(qdot);
+                if deficit > 1e-9 {
+                    *qdot += j * (deficit / (j.norm_squared() + lambda2));
+                    changed = true;
+                    if deficit > report.correction_m_s {
+                        report.correction_m_s = deficit;
+                        report.link = Some(links[k]);
+                        report.distance_m = self.dist[k];
+                    }
+                }
+            }
+            report.active |= changed;
+            if !changed {
+                break;
+            }
+        }
+        report
+    }
+}

@@ -1,0 +1,237 @@
+//! Link-distance safety (`cowork_ds::safety`): what eq. 5.13 alone cannot do with the
+//! orientation held (one redundant DoF) — a sphere on the forearm's path, and a "hand" that
+//! moves into the forearm and holds there — the damper does: the arm holds at the stop
+//! distance instead of pushing in, retreats from an approaching obstacle, and resumes when it
+//! leaves. The end-effector links are left to the DS modulation (and never damped while a
+//! command turns end-effector avoidance off, the handover).
+
+mod common;
+
+use cowork_ds::{ControlOutput, ControllerConfig, DsController, LinkDistance, Status};
+use cowork_robot::{JointVector, LinkPoses, RobotModel};
+use nalgebra::{Point3, Vector3};
+
+struct Run {
+    /// Smallest distance of any non end-effector link point to the sphere surface (m).
+    min_distance: f64,
+    reached: bool,
+    safety_steps: usize,
+    elbow_path: Vec<Vector3<f64>>,
+}
+
+/// Sphere centre (m) and radius at time t (s).
+type Obstacle<'a> = &'a dyn Fn(f64) -> (Point3<f64>, f64, Vector3<f64>);
+
+fn run(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, seconds: f64, reach_y: f64) -> Run {
+    let points = common::link_points(model, 1);
+    let q0 = JointVector::from_row_slice(&[0.0, 0.6, 0.0, -1.3, 0.0, 0.7, 0.0]);
+    let x0 = common::tip_position(model, &q0);
+    let goal = x0 + Vector3::new(0.0, reach_y, 0.0);
+    let mut cfg = ControllerConfig::default();
+    cfg.safety.enabled = safety;
+    // The thesis's layers stay on: end-effector modulation and null-space link avoidance.
+    let mut ctl = DsController::new(model.clone(), cfg).expect("config");
+    let ee_first = ctl.end_effector_first_link();
+    let elbow = model.joint_link(3);
+    let mut cmd = common::command(common::constant_speed(0.3), goal);
+    cmd.orientation = Some(model.link_pose(&q0, model.tip_link()).rotation);
+    let mut q = q0;
+    let mut poses = LinkPoses::new();
+    let mut out = ControlOutput::default();
+    let mut r = Run { min_distance: f64::INFINITY, reached: false, safety_steps: 0, elbow_path: Vec::new() };
+    let arm: Vec<_> = points[..ee_first].to_vec();
+    for k in 0..(seconds * 1000.0) as usize {
+        let t = k as f64 * 1e-3;
+        model.forward_kinematics(&q, &mut poses);
+        r.elbow_path.push(poses.get(elbow).translation.vector);
+        let mut input = common::input(q, cmd, t);
+        if let Some(obstacle) = obstacle {
+            let (c, rad, v) = obstacle(t);
+            r.min_distance = r.min_distance.min(common::min_sphere_distance(&poses, &arm, &c, rad));
+            // Distances measured 33 ms ago (one camera frame), as fDED delivers them.
+            input.distances = common::sphere_distances(&poses, &points, &c, rad, &v, t);
+            input.distances.stamp = t - 0.033;
+        }
+        ctl.step(&input, &mut out).expect("step");
+        r.safety_steps += usize::from(out.diagnostics.safety.active);
+        r.reached |= out.status == Status::Converged;
+        q += out.qdot * 1e-3;
+    }
+    r
+}
+
+/// A sphere on the elbow's path with the orientation held: eq. 5.13's single redundant DoF
+/// lets the arm come within a few cm; the damper holds it at the stop distance (the goal then
+/// stays out of reach while the sphere is there — holding is the point).
+#[test]
+fn forearm_holds_before_a_static_obstacle() {
+    let model = common::lwr();
+    let free = run(&model, false, None, 4.0, 0.45);
+    let first = free.elbow_path[0];
+    // On the elbow's path, 0.25 m from where it starts.
+    let on_path = free.elbow_path.iter().find(|p| (*p - first).norm() >= 0.25).copied().expect("the elbow moves 0.25 m");
+    let radius = 0.06;
+    let c = Point3::from(on_path);
+    let sphere = move |_t: f64| (c, radius, Vector3::zeros());
+    let blind = run(&model, false, Some(&sphere), 4.0, 0.45);
+    let safe = run(&model, true, Some(&sphere), 4.0, 0.45);
+    let stop = ControllerConfig::default().safety.stop_distance;
+    eprintln!(
+        "static sphere on the forearm's path: eq. 5.13 alone min {:.4} m; with the damper {:.4} m \
+         (stop distance {stop} m, damper active {} steps, goal reached {})",
+        blind.min_distance, safe.min_distance, safe.safety_steps, safe.reached
+    );
+    // Eq. 5.13 alone (one redundant DoF) lets the arm well inside the stop distance here.
+    assert!(blind.min_distance < stop - 0.03, "the scene must come close without the damper: {}", blind.min_distance);
+    assert!(safe.safety_steps > 0);
+    // Sampled link points (the damper sees the closest vertex of each link): a few mm of slack.
+    assert!(safe.min_distance > stop - 0.01, "damper let the arm close to {} m", safe.min_distance);
+}
+
+/// A hand that reaches into the forearm at 1 m/s, holds inside the arm's path for 1 s, and
+/// leaves: the arm retreats, never touches it, and reaches the goal after it left.
+#[test]
+fn forearm_retreats_from_a_reaching_hand_and_resumes() {
+    let model = common::lwr();
+    let free = run(&model, false, None, 3.0, 0.35);
+    let target = Point3::from(free.elbow_path[free.elbow_path.len() / 4] + Vector3::new(0.0, 0.0, 0.0));
+    let start = target + Vector3::new(-0.5, 0.0, 0.1);
+    let radius = 0.04;
+    let speed = 1.0;
+    let travel = (target - start).norm() / speed;
+    let dir = (target - start).normalize();
+    let hand = move |t: f64| {
+        let (t_in, t_hold) = (0.2, 0.2 + travel);
+        let t_out = t_hold + 1.0;
+        if t < t_in {
+            (start, radius, Vector3::zeros())
+        } else if t < t_hold {
+            (start + dir * speed * (t - t_in), radius, dir * speed)
+        } else if t < t_out {
+            (target, radius, Vector3::zeros())
+        } else {
+            let s = (speed * (t - t_out)).min(1.0);
+            (target - dir * s, radius, if s < 1.0 { -dir * speed } else { Vector3::zeros() })
+        }
+    };
+    let blind = run(&model, false, Some(&hand), 6.0, 0.35);
+    let safe = run(&model, true, Some(&hand), 6.0, 0.35);
+    eprintln!(
+        "hand reaching into the forearm at {speed} m/s: eq. 5.13 alone min {:.4} m; with the damper {:.4} m \
+         (active {} steps, goal reached {})",
+        blind.min_distance, safe.min_distance, safe.safety_steps, safe.reached
+    );
+    assert!(blind.min_distance < 0.0, "the hand must hit the arm without the damper: {}", blind.min_distance);
+    assert!(safe.min_distance > 0.03, "the arm did not get out of the way: {} m", safe.min_distance);
+    assert!(safe.reached, "goal reached after the hand left");
+}
+
+/// The damper only removes approach: a receding obstacle's velocity gives no credit, motion
+/// away from or along the obstacle is untouched, and the end-effector links are not damped by
+/// default nor ever when a command turns end-effector avoidance off.
+#[test]
+fn damper_limits_only_the_approach() {
+    let model = common::lwr();
+    let q = common::q_start();
+    let goal = common::tip_position(&model, &q) + Vector3::new(0.0, 0.3, 0.0);
+    let mut poses = LinkPoses::new();
+    model.forward_kinematics(&q, &mut poses);
+    let link = model.joint_link(3);
+    let p = Point3::from(poses.get(link).translation.vector);
+    let step = |cfg: ControllerConfig, link: usize, d: f64, n: Vector3<f64>, v: Vector3<f64>, ee_avoid: bool| {
+        let mut ctl = DsController::new(model.clone(), cfg).expect("config");
+        let mut cmd = common::command(common::constant_speed(0.3), goal);
+        cmd.end_effector_avoidance = ee_avoid;
+        let mut input = common::input(q, cmd, 1.0);
+        input.distances.count = model.link_count();
+        input.distances.links[link] = LinkDistance {
+            valid: true,
+            distance: d,
+            robot_point: p,
+            obstacle_point: p - n * d,
+            normal: n,
+            obstacle_velocity: v,
+        };
+        let mut out = ControlOutput::default();
+        // Past the resume ramp.
+        for _ in 0..300 {
+            ctl.step(&input, &mut out).expect("step");
+        }
+        out
+    };
+    let cfg = ControllerConfig::default();
+    let mut ctl_free = DsController::new(model.clone(), cfg).expect("config");
+    let mut out_free = ControlOutput::default();
+    let free_in = common::input(q, common::command(common::constant_speed(0.3), goal), 1.0);
+    for _ in 0..300 {
+        ctl_free.step(&free_in, &mut out_free).expect("step");
+    }
+    let mut pj = cowork_robot::PositionJacobian::zeros();
+    let in_link = poses.get(link).inverse_transform_point(&p);
+    model.position_jacobian(&poses, link, &in_link, &mut pj);
+    let rate = |qd: &JointVector, n: &Vector3<f64>| n.dot(&(pj * qd));
+    // The free motion's elbow velocity; put an obstacle right in front of it.
+    let v_free = pj * out_free.qdot;
+    assert!(v_free.norm() > 1e-3, "the elbow moves in the free motion");
+    let n = -v_free.normalize();
+    // At the stop distance: no approach left.
+    let out = step(cfg, link, cfg.safety.stop_distance, n, Vector3::zeros(), true);
+    assert!(out.diagnostics.safety.active);
+    assert!(rate(&out.qdot, &n) > -1e-3, "approach at the stop distance: {}", rate(&out.qdot, &n));
+    // A receding obstacle (moving away at 1 m/s) gives no credit.
+    let out_r = step(cfg, link, cfg.safety.stop_distance, n, -n * 1.0, true);
+    assert!(rate(&out_r.qdot, &n) > -1e-3);
+    // Beyond the slow distance: untouched.
+    let out = step(cfg, link, cfg.safety.slow_distance + 0.05, n, Vector3::zeros(), true);
+    assert!(!out.diagnostics.safety.active);
+    // Obstacle behind the motion (the elbow moves away from it): untouched.
+    let out = step(cfg, link, cfg.safety.stop_distance + 0.02, -n, Vector3::zeros(), true);
+    assert!(!out.diagnostics.safety.active);
+    // End-effector links: modulation's job by default; damped when configured, but never with
+    // end-effector avoidance off.
+    let tip = model.tip_link();
+    let out = step(cfg, tip, 0.05, n, Vector3::zeros(), true);
+    assert!(!out.diagnostics.safety.active);
+    let mut ee_cfg = cfg;
+    ee_cfg.safety.end_effector = true;
+    ee_cfg.modulation.end_effector = true;
+    let out = step(ee_cfg, tip, 0.05, -goal_dir(&model, &q, &goal), Vector3::zeros(), true);
+    assert!(out.diagnostics.safety.active, "end-effector damper when configured");
+    let out = step(ee_cfg, tip, 0.05, -goal_dir(&model, &q, &goal), Vector3::zeros(), false);
+    assert!(!out.diagnostics.safety.active, "never during a handover");
+}
+
+fn goal_dir(model: &RobotModel, q: &JointVector, goal: &Vector3<f64>) -> Vector3<f64> {
+    (goal - common::tip_position(model, q)).normalize()
+}
+
+/// The watchdog's slow zone: distances older than `slow_after_s` scale the speed down
+/// linearly, to 0 at `stale_after_s`, after which the robot is held.
+#[test]
+fn aging_data_slows_then_holds() {
+    let model = common::lwr();
+    let q = common::q_start();
+    let goal = common::tip_position(&model, &q) + Vector3::new(0.0, 0.3, 0.0);
+    let cfg = ControllerConfig::default();
+    let speed_at = |age: f64| {
+        let mut ctl = DsController::new(model.clone(), cfg).expect("config");
+        let mut out = ControlOutput::default();
+        let cmd = common::command(common::constant_speed(0.3), goal);
+        let mut res = Ok(());
+        for k in 0..400 {
+            let t = 1.0 + k as f64 * 1e-3;
+            let mut input = common::input(q, cmd, t);
+            input.distances.stamp = t - age;
+            res = ctl.step(&input, &mut out);
+        }
+        (out.diagnostics.ee_velocity.norm(), out.diagnostics.age_scale, res.is_ok())
+    };
+    let (fresh, s_fresh, ok_fresh) = speed_at(0.0);
+    let (mid, s_mid, ok_mid) = speed_at(0.5 * (cfg.slow_after_s + cfg.stale_after_s));
+    let (_, _, ok_stale) = speed_at(cfg.stale_after_s + 0.01);
+    eprintln!("speed fresh {fresh:.3} m/s, half-way into the slow zone {mid:.3} m/s (scale {s_mid:.2})");
+    assert!(ok_fresh && ok_mid && !ok_stale);
+    assert_eq!(s_fresh, 1.0);
+    assert!((s_mid - 0.5).abs() < 1e-9, "{s_mid}");
+    assert!((mid - 0.5 * fresh).abs() < 0.02 * fresh, "fresh {fresh}, mid {mid}");
+}
