@@ -11,11 +11,15 @@ use std::collections::VecDeque;
 use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::Duration;
 
+use cowork_msgs::msg::ObjectStream;
 use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use cowork_msgs::tf2_msgs::TFMessage;
 
 /// Joint states held between two frames at most (2 s of a 1 kHz publisher).
 pub const MAX_PENDING_JOINT_STATES: usize = 2048;
+
+/// `/manipulated_objects` lists held between two frames at most (oldest dropped first).
+pub const MAX_PENDING_MANIPULATED: usize = 256;
 
 /// Everything that arrived since the worker last took.
 #[derive(Debug, Default)]
@@ -28,12 +32,15 @@ pub struct Batch {
     pub joint_states: Vec<JointState>,
     /// `/tf_static` messages, oldest first.
     pub tf_static: Vec<TFMessage>,
+    /// `/manipulated_objects` lists, oldest first.
+    pub manipulated: Vec<ObjectStream>,
 }
 
 #[derive(Debug, Default)]
 struct State {
     pending: Batch,
     joint_states: VecDeque<JointState>,
+    manipulated: VecDeque<ObjectStream>,
     dropped_images: u64,
     closed: bool,
 }
@@ -80,6 +87,16 @@ impl Inbox {
         s.joint_states.push_back(state);
     }
 
+    /// Posts a `/manipulated_objects` list; beyond [`MAX_PENDING_MANIPULATED`] waiting, the
+    /// oldest goes.
+    pub fn post_manipulated(&self, msg: ObjectStream) {
+        let mut s = self.lock();
+        if s.manipulated.len() >= MAX_PENDING_MANIPULATED {
+            s.manipulated.pop_front();
+        }
+        s.manipulated.push_back(msg);
+    }
+
     /// Posts a `/tf_static` message.
     pub fn post_tf_static(&self, msg: TFMessage) {
         self.lock().pending.tf_static.push(msg);
@@ -98,6 +115,7 @@ impl Inbox {
         }
         let mut batch = std::mem::take(&mut s.pending);
         batch.joint_states.extend(s.joint_states.drain(..));
+        batch.manipulated.extend(s.manipulated.drain(..));
         Some(batch)
     }
 

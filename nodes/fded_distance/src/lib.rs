@@ -6,8 +6,10 @@
 //! QoS), `/camera/depth/camera_info` (sensor_msgs/CameraInfo), `/joint_states`
 //! (sensor_msgs/JointState, matched by joint name, and to the frame by stamp), `/tf_static`
 //! (tf2_msgs/TFMessage: the transform from the robot base to the image's `frame_id`; until one
-//! arrives the configured `camera_pose` is used). Only a direct base → camera transform is
-//! read; chains are not composed.
+//! arrives the configured `camera_pose` is used), `/manipulated_objects` (cowork_msgs/ObjectStream
+//! from robot_manager: the held object and the target of the running near-object action, whose
+//! pixels are removed before fDED so they do not repel the arm — fail closed, see
+//! [`manipulated`]). Only a direct base → camera transform is read; chains are not composed.
 //!
 //! Outputs, for every processed frame, stamped with the image's stamp, in the base frame:
 //! `/fded/distances` (cowork_msgs/LinkDistances, with `processing_time`, s, of the fDED call
@@ -38,13 +40,14 @@
 //! ```
 
 pub mod inbox;
+pub mod manipulated;
 pub mod markers;
 mod node;
 mod params;
 mod run;
 
 pub use node::{FdedNode, MAX_CAMERA_FRAMES, RateLimitedWarnings, Skip, isometry};
-pub use params::Params;
+pub use params::{ManipulatedParams, Params};
 pub use run::{RunOptions, RunSummary, run};
 
 /// Depth images in.
@@ -55,6 +58,9 @@ pub const TOPIC_CAMERA_INFO: &str = "/camera/depth/camera_info";
 pub const TOPIC_JOINT_STATES: &str = "/joint_states";
 /// Camera pose in (base → camera optical frame).
 pub const TOPIC_TF_STATIC: &str = "/tf_static";
+/// Objects the robot manipulates in (robot_manager): their pixels are not obstacles
+/// ([`manipulated`]).
+pub const TOPIC_MANIPULATED: &str = "/manipulated_objects";
 /// Per-link distances out.
 pub const TOPIC_DISTANCES: &str = "/fded/distances";
 /// Markers for viewers out.

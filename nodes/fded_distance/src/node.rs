@@ -17,9 +17,11 @@ use cowork_msgs::visualization_msgs::MarkerArray;
 use cowork_robot::{DOF, RobotModel};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 
+use crate::manipulated::{ManipulatedObjects, Refusal, Removal};
 use crate::markers::fill_markers;
 use crate::params::Params;
 use crate::{TOPIC_CAMERA_INFO, TOPIC_DEPTH, TOPIC_JOINT_STATES, TOPIC_TF_STATIC};
+use cowork_msgs::msg::ObjectStream;
 
 /// Joint states remembered for matching frames by stamp (2 s of a 1 kHz publisher).
 const JOINT_HISTORY: usize = 2048;
@@ -82,6 +84,11 @@ pub struct FdedNode {
     msg: LinkDistances,
     markers: MarkerArray,
     notice: Option<Skip>,
+    /// The manipulated objects (`None`: `manipulated.enabled` false).
+    manipulated: Option<ManipulatedObjects>,
+    /// What was removed from the last frame.
+    removal: Removal,
+    refusals: Vec<Refusal>,
     /// Processing times (s) since the last report.
     times: Vec<f64>,
     frames: u64,
@@ -97,7 +104,23 @@ impl FdedNode {
             anyhow::bail!("the robot model has no links");
         };
         let camera_default = params.camera_pose.isometry();
+        let manipulated = if params.manipulated.enabled {
+            let mut shapes = HashMap::new();
+            if !params.manipulated.scene.is_empty() {
+                let path = std::path::Path::new(&params.manipulated.scene);
+                let scene = cowork_sim::Scene::from_file(path).map_err(|e| {
+                    anyhow::anyhow!("fded_distance parameters: `manipulated.scene` {}: {e}", path.display())
+                })?;
+                shapes.extend(scene.objects.into_iter().map(|o| (o.name, o.shape)));
+            }
+            Some(ManipulatedObjects::new(shapes, params.manipulated.margin_m, params.manipulated.max_age_s, &base_frame))
+        } else {
+            None
+        };
         Ok(Self {
+            manipulated,
+            removal: Removal::default(),
+            refusals: Vec::new(),
             request,
             base_frame,
             msg: LinkDistances {
@@ -268,6 +291,20 @@ impl FdedNode {
         }
     }
 
+    /// `/manipulated_objects` (robot_manager): the objects whose pixels are not obstacles. A
+    /// refused list clears what was known (every object is an obstacle until a good one).
+    pub fn on_manipulated(&mut self, msg: &ObjectStream) -> Result<(), Skip> {
+        let Some(m) = self.manipulated.as_mut() else { return Ok(()) };
+        m.on_list(msg).map_err(|r| match r {
+            Refusal::Message(t) | Refusal::Stale(t) | Refusal::Object(t) => skip("manipulated", t),
+        })
+    }
+
+    /// What was removed from the last processed frame as manipulated objects.
+    pub fn removed(&self) -> &Removal {
+        &self.removal
+    }
+
     /// The joint state for a frame at `stamp` (s): the one closest in time; when that is
     /// further than `max_joint_state_age_s`, the newest, with a notice.
     fn joints_for(&mut self, stamp: f64) -> Option<[f64; DOF]> {
@@ -330,6 +367,18 @@ impl FdedNode {
         };
         let frame_id = image.header.frame_id.trim_start_matches('/');
         let camera = self.camera_from_tf.get(frame_id).unwrap_or(&self.camera_default);
+        self.removal = Removal::default();
+        if let (Some(m), Some((k, _))) = (&self.manipulated, &self.engine) {
+            self.refusals.clear();
+            self.removal = m.remove(stamp, camera, k, &mut self.depth, &mut self.refusals);
+            if let Some(r) = self.refusals.first() {
+                let (kind, t) = match r {
+                    Refusal::Stale(t) => ("manipulated_stale", t),
+                    Refusal::Object(t) | Refusal::Message(t) => ("manipulated_object", t),
+                };
+                self.notice = Some(skip(kind, t.clone()));
+            }
+        }
         let Some((_, engine)) = self.engine.as_mut() else {
             unreachable!("checked above");
         };

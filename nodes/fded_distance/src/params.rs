@@ -39,6 +39,31 @@ pub struct Params {
     pub min_valid_fraction: f64,
     /// fDED parameters (thesis Table 5.1 defaults).
     pub fded: FdedParams,
+    /// The objects the robot manipulates are not obstacles (see [`crate::manipulated`]).
+    pub manipulated: ManipulatedParams,
+}
+
+/// The `manipulated:` block: which pixels of `/manipulated_objects` are removed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ManipulatedParams {
+    /// Remove the manipulated objects' pixels; false: every object is always an obstacle.
+    pub enabled: bool,
+    /// Scene file whose `objects:` give each object's shape by name (poses come with the
+    /// list); empty: no shapes known, so nothing is removed.
+    pub scene: String,
+    /// Each shape is grown by this much before its pixels are removed, m: depth noise and
+    /// the motion of a held object between its pose report and the frame.
+    pub margin_m: f64,
+    /// A list is used only for frames within this time of its stamp, s; otherwise (the
+    /// manager is dead or late) every object stays an obstacle.
+    pub max_age_s: f64,
+}
+
+impl Default for ManipulatedParams {
+    fn default() -> Self {
+        Self { enabled: true, scene: String::new(), margin_m: 0.03, max_age_s: 0.1 }
+    }
 }
 
 impl Default for Params {
@@ -60,6 +85,7 @@ impl Default for Params {
             normal_arrow_length_m: 0.1,
             min_valid_fraction: 0.05,
             fded: FdedParams::default(),
+            manipulated: ManipulatedParams::default(),
         }
     }
 }
@@ -80,6 +106,13 @@ impl Params {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{place}: `{name}` = {v} must be a positive number");
             }
+        }
+        let m = &self.manipulated;
+        if !(m.margin_m.is_finite() && (0.0..=0.2).contains(&m.margin_m)) {
+            bail!("{place}: `manipulated.margin_m` = {} must be in [0, 0.2] m", m.margin_m);
+        }
+        if !(m.max_age_s.is_finite() && m.max_age_s > 0.0 && m.max_age_s <= 1.0) {
+            bail!("{place}: `manipulated.max_age_s` = {} must be in (0, 1] s", m.max_age_s);
         }
         if !(0.0..1.0).contains(&self.min_valid_fraction) {
             bail!("{place}: `min_valid_fraction` = {} must be in [0, 1)", self.min_valid_fraction);

@@ -6,7 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
-use cowork_msgs::msg::LinkDistances;
+use cowork_msgs::msg::{LinkDistances, ObjectStream};
 use cowork_msgs::sensor_msgs::{CameraInfo, Image, JointState};
 use cowork_msgs::tf2_msgs::TFMessage;
 use cowork_msgs::visualization_msgs::MarkerArray;
@@ -14,7 +14,9 @@ use cowork_ros::{Publisher, RosNode, qos};
 
 use crate::inbox::{Batch, Inbox};
 use crate::node::{FdedNode, RateLimitedWarnings, Skip};
-use crate::{TOPIC_CAMERA_INFO, TOPIC_DEPTH, TOPIC_DISTANCES, TOPIC_JOINT_STATES, TOPIC_MARKERS, TOPIC_TF_STATIC};
+use crate::{
+    TOPIC_CAMERA_INFO, TOPIC_DEPTH, TOPIC_DISTANCES, TOPIC_JOINT_STATES, TOPIC_MANIPULATED, TOPIC_MARKERS, TOPIC_TF_STATIC,
+};
 
 /// Options of [`run`].
 #[derive(Debug, Default, Clone)]
@@ -47,6 +49,7 @@ pub fn run(mut node: RosNode, fded: FdedNode, options: &RunOptions) -> Result<Ru
     let infos = node.subscription::<CameraInfo>(TOPIC_CAMERA_INFO, &qos::sensor_data())?;
     let joints = node.subscription::<JointState>(TOPIC_JOINT_STATES, &qos::reliable())?;
     let tf_static = node.subscription::<TFMessage>(TOPIC_TF_STATIC, &qos::latched())?;
+    let manipulated = node.subscription::<ObjectStream>(TOPIC_MANIPULATED, &qos::reliable_depth(100))?;
     let outputs = Outputs {
         distances: node.publisher::<LinkDistances>(TOPIC_DISTANCES, &qos::reliable())?,
         markers: if fded.params().publish_markers {
@@ -86,6 +89,10 @@ pub fn run(mut node: RosNode, fded: FdedNode, options: &RunOptions) -> Result<Ru
             inbox.post_joint_state(m);
             any = true;
         }
+        while let Some(m) = manipulated.take() {
+            inbox.post_manipulated(m);
+            any = true;
+        }
         while let Some(m) = images.take() {
             inbox.post_image(m);
             any = true;
@@ -117,7 +124,7 @@ fn worker(mut fded: FdedNode, inbox: &Inbox, outputs: &Outputs) -> Result<RunSum
     let mut summary = RunSummary::default();
     let mut dropped_at_report = 0;
     while let Some(batch) = inbox.take(Duration::from_millis(100)) {
-        let Batch { image, camera_info, joint_states, tf_static } = batch;
+        let Batch { image, camera_info, joint_states, tf_static, manipulated } = batch;
         for m in &tf_static {
             if let Err(s) = fded.on_tf_static(m) {
                 warnings.warn(&s);
@@ -130,6 +137,11 @@ fn worker(mut fded: FdedNode, inbox: &Inbox, outputs: &Outputs) -> Result<RunSum
         }
         for m in &joint_states {
             if let Err(s) = fded.on_joint_state(m) {
+                warnings.warn(&s);
+            }
+        }
+        for m in &manipulated {
+            if let Err(s) = fded.on_manipulated(m) {
                 warnings.warn(&s);
             }
         }

@@ -35,6 +35,7 @@ fn params() -> Params {
     let mut p: Params =
         cowork_ros::params::load(&root().join("config/fded_distance.yaml"), "fded_distance").expect("bundled parameters");
     p.urdf = root().join("config/robot/lwr4plus.urdf").display().to_string();
+    p.manipulated.scene = root().join("config/scenes/kitchen.yaml").display().to_string();
     // The test frames show the robot and one sphere in front of nothing (no table, no walls):
     // a few per cent of the pixels, which the bundled blind-camera bound would refuse.
     p.min_valid_fraction = 0.005;

@@ -31,6 +31,8 @@ pub struct Outbox {
     pub robot_stream: Vec<RobotStream>,
     /// `/object_stream`.
     pub object_stream: Vec<ObjectStream>,
+    /// `/manipulated_objects`.
+    pub manipulated: Vec<ObjectStream>,
 }
 
 impl Outbox {
@@ -40,6 +42,7 @@ impl Outbox {
         self.gripper.clear();
         self.robot_stream.clear();
         self.object_stream.clear();
+        self.manipulated.clear();
     }
 }
 
@@ -339,10 +342,34 @@ impl RobotManagerNode {
         });
     }
 
-    /// `/lwr/world`.
+    /// `/lwr/world`. Besides the streams, every report gives one `/manipulated_objects` list
+    /// ([`manipulated`](Self::manipulated)).
     pub fn on_world(&mut self, msg: &WorldState, now: Stamp, outbox: &mut Outbox) {
         self.last_world = Some(msg.clone());
         self.run(Input::World(world_report(msg)), now, outbox);
+        outbox.manipulated.push(self.manipulated(msg));
+    }
+
+    /// The objects of `world` the robot manipulates now, which fded_distance must not see as
+    /// obstacles: the held object and the object of the running near-object action (or of the
+    /// grasp that follows it) — scene names, poses of `world`, stamped with `world`'s stamp
+    /// and frame (the pose's time). Empty when there is none; every other object, the table
+    /// and people stay obstacles.
+    pub fn manipulated(&self, world: &WorldState) -> ObjectStream {
+        let cfg = self.manager.config();
+        let target = self.manager.target_object();
+        ObjectStream {
+            header: world.header.clone(),
+            objects: world
+                .objects
+                .iter()
+                .filter(|o| {
+                    let held = o.held || (!world.held_object.is_empty() && world.held_object == o.name);
+                    held || target.is_some_and(|t| cfg.task_name(&o.name) == Some(t))
+                })
+                .map(|o| ObjectState { name: o.name.clone(), pose: o.pose, robot_distance: o.tool_distance, visible: true })
+                .collect(),
+        }
     }
 
     /// `/speech_command`.

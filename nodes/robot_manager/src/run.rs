@@ -40,6 +40,7 @@ pub fn run(mut node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, optio
     let gripper_pub = node.publisher::<RosString>(topics::GRIPPER, &qos::reliable())?;
     let robot_pub = node.publisher::<RobotStream>(topics::ROBOT_STREAM, &qos::reliable_depth(100))?;
     let objects_pub = node.publisher::<ObjectStream>(topics::OBJECT_STREAM, &qos::reliable())?;
+    let manipulated_pub = node.publisher::<ObjectStream>(topics::MANIPULATED, &qos::reliable_depth(100))?;
     tracing::info!(
         "robot_manager running: {} primitives in {}, waiting for {}",
         rm.manager().database().primitives.len(),
@@ -102,6 +103,9 @@ pub fn run(mut node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, optio
         }
         for m in out.object_stream.drain(..) {
             objects_pub.publish(m)?;
+        }
+        for m in out.manipulated.drain(..) {
+            manipulated_pub.publish(m)?;
         }
         if rm.database_dirty() && save_retry.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
             match rm.save_if_changed() {

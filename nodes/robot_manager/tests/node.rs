@@ -78,3 +78,31 @@ fn a_corrupt_database_is_moved_aside_and_the_node_starts_empty() {
     assert!(n.manager().database().primitives.is_empty());
     assert!(dir.path().join("lwr.primitives.json.corrupt-42").exists(), "kept for inspection");
 }
+
+#[test]
+fn every_world_report_gives_the_manipulated_objects_with_its_stamp() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (mut n, _) = RobotManagerNode::new(params(dir.path()), 1);
+    let mut out = Outbox::default();
+    n.on_world(&world(1.0), at(1.02), &mut out);
+    let m = &out.manipulated[0];
+    assert!(m.objects.is_empty(), "nothing held, nothing approached: {m:?}");
+    assert_eq!(m.header.stamp, Time::from_secs_f64(1.0), "stamped with the pose's time, not the node's");
+    assert_eq!(m.header.frame_id, "lwr_base_link");
+    out.clear();
+    let mut w = world(1.1);
+    w.gripper_state = WorldState::GRIPPER_CLOSED;
+    w.held_object = "bottle".into();
+    w.objects[0].held = true;
+    w.objects[0].pose = pose(0.5, 0.1, 0.3);
+    n.on_world(&w, at(1.1), &mut out);
+    let m = &out.manipulated[0];
+    let names: Vec<&str> = m.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["bottle"], "scene names (fded_distance knows the shapes by them)");
+    assert_eq!(m.objects[0].pose, w.objects[0].pose);
+    // The same with only `held_object` set (the per-object flag is a convenience).
+    out.clear();
+    w.objects[0].held = false;
+    n.on_world(&w, at(1.2), &mut out);
+    assert_eq!(out.manipulated[0].objects.len(), 1);
+}

@@ -191,6 +191,9 @@ pub struct Manager {
     segments: Vec<Segment>,
     notes: Vec<Note>,
     learned: Vec<(Segment, Primitive)>,
+    /// Object (task name) of the last near-object action started: the one a following
+    /// `gripper(close)` closes on.
+    last_noa_object: Option<String>,
 }
 
 impl Manager {
@@ -209,6 +212,7 @@ impl Manager {
             segments: Vec::new(),
             notes: Vec::new(),
             learned: Vec::new(),
+            last_noa_object: None,
         }
     }
 
@@ -235,6 +239,20 @@ impl Manager {
     /// Label of the action running now.
     pub fn running(&self) -> Option<&str> {
         self.current.as_ref().map(|r| r.label.as_str())
+    }
+
+    /// The object (task name) the running action works on, which must not repel the arm: the
+    /// object of a running near-object action (approach, grasp, pour over it) and, during a
+    /// `gripper(close)`, the object of the near-object action before it. `None` for far-object
+    /// actions, holds, teaching and when nothing runs. The held object is the world's
+    /// ([`World::held`]), not this.
+    pub fn target_object(&self) -> Option<&str> {
+        let cur = self.current.as_ref()?;
+        match (cur.kind, cur.gripper) {
+            (ActionKind::Noa, _) if cur.object != WORLD => Some(cur.object.as_str()),
+            (ActionKind::Gripper, Some(GripperCommand::Close)) => self.last_noa_object.as_deref(),
+            _ => None,
+        }
     }
 
     /// Every (segment, primitive) learned so far, in order (for offline evaluation).
@@ -544,6 +562,11 @@ impl Manager {
             }
             None => return self.fail(&run, "no /lwr/world report yet: object poses unknown".into(), out),
         };
+        if run.kind == ActionKind::Noa && run.object != WORLD {
+            self.last_noa_object = Some(run.object.clone());
+        } else if run.kind != ActionKind::Gripper {
+            self.last_noa_object = None;
+        }
         if let Some(cmd) = run.gripper {
             if cmd == GripperCommand::Close
                 && let Some(h) = &world.held

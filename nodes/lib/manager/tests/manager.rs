@@ -319,3 +319,35 @@ fn a_streamed_noa_follows_both_dmps_and_is_done_at_its_goal() {
     }
     panic!("the streamed NOA never finished ({} goals)", goals.len());
 }
+
+#[test]
+fn the_target_object_is_the_running_noas_and_the_grasps_after_it() {
+    let mut d = taught();
+    assert_eq!(d.manager.target_object(), None, "nothing runs");
+    run_action(&mut d, 1, "foa1(water)");
+    assert_eq!(d.manager.target_object(), None, "a far-object action avoids every object");
+    run_action(&mut d, 2, "noa2(water)");
+    assert_eq!(d.manager.target_object(), Some("water"), "approach and grasp");
+    // A reused NOA on another object targets that object.
+    run_action(&mut d, 3, "noa2(cup)");
+    assert_eq!(d.manager.target_object(), Some("cup"));
+    run_action(&mut d, 4, "noa2(water)");
+    // The grasp after it closes on the bottle.
+    let b = d.world.objects[0].1.translation.vector;
+    d.world.tool = at(b.x, b.y, b.z + 0.13);
+    d.world.step(0.01);
+    d.feed_world();
+    run_action(&mut d, 5, "close3(water)");
+    assert_eq!(d.manager.target_object(), Some("water"));
+    d.world.gripper(true);
+    d.world.step(0.01);
+    d.feed_world();
+    assert_eq!(d.manager.target_object(), None, "grasp done: the bottle is the held object now, not a target");
+    // A FOA after it clears the grasp target; stop clears everything.
+    run_action(&mut d, 6, "foa4(cup)");
+    assert_eq!(d.manager.target_object(), None);
+    run_action(&mut d, 7, "noa5(cup)");
+    assert_eq!(d.manager.target_object(), Some("cup"));
+    d.say("stop");
+    assert_eq!(d.manager.target_object(), None, "held: nothing is approached");
+}
