@@ -9,8 +9,8 @@
 //!   and publishes what the loop produced: `/lwr/joint_velocity_command` (every output) and
 //!   `/motion/status` (on every change and at `status_rate_hz`).
 //!
-//! Inputs are stamped with their arrival time on the node's clock: the watchdog is about a
-//! stream going quiet, whatever stamps its producer writes. Bad input never stops the node: a
+//! Inputs carry their header stamps (when the data was measured): the watchdog ages them
+//! against the node's clock, so a frame delivered late is as old as it is. Bad input never stops the node: a
 //! bad command is aborted with its reason and the robot held; bad distances (NaN, infinite,
 //! zero normal, unknown link) hold the robot with the reason until valid ones arrive.
 
@@ -166,6 +166,8 @@ pub struct RtOutput {
     pub goal_error: f64,
     /// No `/joint_states` yet: nothing was computed.
     pub waiting_for_joints: bool,
+    /// The link whose approach the link-distance damper limited this step (model index).
+    pub approach_limited: Option<usize>,
 }
 
 /// The node's clock, shared by both threads: wall time (s since the epoch) or `/clock` time
@@ -214,6 +216,7 @@ pub fn rt_step(
             command_id: inputs.command.id,
             goal_error: f64::NAN,
             waiting_for_joints: true,
+            approach_limited: None,
         };
     };
     let age = t - q_stamp;
@@ -242,6 +245,7 @@ pub fn rt_step(
         command_id: inputs.command.id,
         goal_error: out.diagnostics.goal_error_m,
         waiting_for_joints: false,
+        approach_limited: if out.diagnostics.safety.active { out.diagnostics.safety.link } else { None },
     }
 }
 
@@ -489,13 +493,18 @@ impl Adapter {
         Ok((MotionCommand { id: msg.id, primitive, goal, orientation, end_effector_avoidance: true }, model))
     }
 
-    /// A reason for a status message: the controller's fault with link names.
-    pub fn reason(&self, o: &RtOutput) -> String {
+    /// A reason for a status message: the controller's fault with link names; while moving,
+    /// `approach limited: LINK` when the link-distance damper held back link `limited` (the
+    /// caller keeps it for a moment so a damper switching at 1 kHz does not flood the topic).
+    pub fn reason(&self, o: &RtOutput, limited: Option<usize>) -> String {
         if o.waiting_for_joints {
             return "waiting for /joint_states".into();
         }
         match o.status {
-            Status::Running | Status::Converged => String::new(),
+            Status::Running | Status::Converged => match limited {
+                Some(l) => format!("approach limited: {}", self.link_name(l)),
+                None => String::new(),
+            },
             Status::Held(HoldReason::Command) if o.command_id == 0 => "waiting for /motion/command".into(),
             Status::Held(HoldReason::Command) => "hold command".into(),
             Status::Held(HoldReason::SpeedZero) => "speed scale 0 (stop)".into(),
@@ -607,6 +616,8 @@ fn serve(
     let mut last_status_at = Instant::now();
     // The command that was aborted (id, reason): its statuses read ABORTED while it is current.
     let mut aborted: Option<(u32, String)> = None;
+    // The damper's last limited link and when (node clock, s): reported for 0.2 s after.
+    let mut limited: Option<(usize, f64)> = None;
     loop {
         if cowork_ros::shutdown::requested()
             || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
@@ -709,12 +720,17 @@ fn serve(
             }
         }
         let Some(o) = newest else { continue };
+        if let Some(l) = o.approach_limited {
+            limited = Some((l, o.time));
+        } else if limited.is_some_and(|(_, t)| !(o.time - t <= 0.2 && o.time >= t)) {
+            limited = None;
+        }
         if !o.waiting_for_joints {
             io.vel_pub.publish(Float64MultiArray::from_vec(o.qdot.as_slice().to_vec()))?;
         }
         let (state, reason) = match &aborted {
             Some((id, reason)) if *id == o.command_id => (MotionStatus::STATE_ABORTED, reason.clone()),
-            _ => (state_of(&o.status), adapter.reason(&o)),
+            _ => (state_of(&o.status), adapter.reason(&o, limited.map(|l| l.0))),
         };
         let key = (o.command_id, state, reason);
         if last_status.as_ref() != Some(&key) || last_status_at.elapsed() >= status_every {

@@ -68,6 +68,10 @@ pub struct ExperimentArgs {
     /// Directory of the node binaries.
     #[arg(long, default_value = "target/release")]
     pub bin_dir: PathBuf,
+    /// ds_controller's parameter file (e.g. a copy with `safety: enabled: false` to measure
+    /// the thesis's controller alone).
+    #[arg(long, default_value = "config/ds_controller.yaml")]
+    pub ds_params: PathBuf,
     /// Wall-clock seconds to wait for every node to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,
@@ -216,6 +220,9 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
             );
         }
     }
+    if !args.ds_params.is_file() {
+        bail!("--ds-params {}: no such file", args.ds_params.display());
+    }
     let model = RobotModel::from_urdf_file(root.join("config/robot/lwr4plus.urdf"))?;
     shutdown::install();
     let mut results = Vec::new();
@@ -231,7 +238,7 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
             series,
         ));
         println!(
-            "{} seed {}: {} (min distance {}, collisions {}, {:.1} s simulated, {:.0} s wall){}",
+            "{} seed {}: {} (min distance {}, collisions {}, link damper {:.1} s, {:.1} s simulated, {:.0} s wall){}",
             exp.name,
             r.seed,
             if r.success { "success" } else { "FAILED" },
@@ -240,6 +247,7 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
                 c.distance_m, c.t_s, c.link, c.body_part
             )),
             r.collisions,
+            r.approach_limited_s,
             r.duration_s,
             r.wall_s,
             if r.reason.is_empty() {
@@ -325,6 +333,10 @@ pub fn report_trial(
             ),
         ),
         ("speed switches".into(), r.speed_switches.to_string()),
+        (
+            "link damper active (s)".into(),
+            format!("{:.1}", r.approach_limited_s),
+        ),
     ];
     ReportTrial {
         title: title.to_owned(),
@@ -393,6 +405,7 @@ impl Inputs {
         }
         while let Some(m) = self.status.take() {
             heard.status = true;
+            judge.on_status(&m);
             *status = Some(m);
         }
         while let Some(m) = self.distances.take() {
@@ -458,7 +471,7 @@ fn run_trial(
     wall(&mut fded_args);
     let mut ds_args = vec![
         "--params".into(),
-        "config/ds_controller.yaml".into(),
+        args.ds_params.display().to_string(),
         "--use-sim-time".into(),
     ];
     wall(&mut ds_args);
@@ -750,6 +763,8 @@ fn run_trial(
         gestures: judge.series.gestures.iter().map(|g| g.1.clone()).collect(),
         variant: Some(exp.variant.clone()),
         bag: bag.map(|b| b.display().to_string()),
+        approach_limited_s: judge.approach_limited_s,
+        approach_limited_links: judge.approach_limited_links.clone(),
     };
     Ok((result, judge.series))
 }

@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use cowork_bag::BagReader;
-use cowork_msgs::msg::{Gesture, HumanState, LinkDistances, Skeleton, WorldState};
+use cowork_msgs::msg::{Gesture, HumanState, LinkDistances, MotionStatus, Skeleton, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::Float64MultiArray;
 
@@ -42,6 +42,7 @@ pub fn feed_bag(path: &Path, judge: &mut Judge) -> Result<BagFeed> {
             "/fded/distances" => m.decode::<LinkDistances>().map(|x| judge.on_distances(&x)),
             "/human/state" => m.decode::<HumanState>().map(|x| judge.on_human_state(&x)),
             "/human/gesture" => m.decode::<Gesture>().map(|x| judge.on_gesture(&x)),
+            "/motion/status" => m.decode::<MotionStatus>().map(|x| judge.on_status(&x)),
             "/lwr/joint_velocity_command" => m
                 .decode::<Float64MultiArray>()
                 .map(|x| judge.on_command(&x)),

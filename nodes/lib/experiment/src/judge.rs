@@ -6,7 +6,7 @@
 
 use std::collections::BTreeMap;
 
-use cowork_msgs::msg::{Gesture, HumanState, LinkDistances, Skeleton, WorldState};
+use cowork_msgs::msg::{Gesture, HumanState, LinkDistances, MotionStatus, Skeleton, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::Float64MultiArray;
 use cowork_people::{BODY_CAPSULE_NAMES, SkeletonPose, body_capsules};
@@ -156,6 +156,12 @@ pub struct Judge {
     last_tool: Option<(f64, Vector3<f64>)>,
     /// Closest approach so far.
     pub closest: Option<Approach>,
+    /// Simulated time ds_controller reported its link-distance damper holding a link back
+    /// (`/motion/status` reason `approach limited: LINK`), s.
+    pub approach_limited_s: f64,
+    /// The links it held back, by name, with the time each (s).
+    pub approach_limited_links: BTreeMap<String, f64>,
+    limited_since: Option<(f64, String)>,
     /// The series.
     pub series: Series,
 }
@@ -178,6 +184,9 @@ impl Judge {
             last_world: None,
             last_tool: None,
             closest: None,
+            approach_limited_s: 0.0,
+            approach_limited_links: BTreeMap::new(),
+            limited_since: None,
             series: Series::default(),
             model,
         })
@@ -297,6 +306,20 @@ impl Judge {
             .fold(f64::INFINITY, f64::min);
         if min.is_finite() {
             self.series.measured_distance.push((t, min));
+        }
+    }
+
+    /// `/motion/status`: times the link-distance damper's `approach limited: LINK` reports
+    /// (from one status to the next).
+    pub fn on_status(&mut self, msg: &MotionStatus) {
+        let t = msg.header.stamp.to_secs_f64();
+        if let Some((since, link)) = self.limited_since.take() {
+            let dt = (t - since).max(0.0);
+            self.approach_limited_s += dt;
+            *self.approach_limited_links.entry(link).or_insert(0.0) += dt;
+        }
+        if let Some(link) = msg.reason.strip_prefix("approach limited: ") {
+            self.limited_since = Some((t, link.to_owned()));
         }
     }
 

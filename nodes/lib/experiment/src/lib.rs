@@ -20,6 +20,7 @@ pub mod plan;
 pub mod report;
 pub mod result;
 pub mod sequencer;
+pub mod trace;
 
 pub use error::{Error, Result};
 pub use judge::{Judge, Series, Stats, THESIS_MIN_DISTANCE_M};

@@ -57,6 +57,12 @@ pub struct TrialResult {
     pub variant: Option<Variant>,
     /// MCAP of the trial (`--record`).
     pub bag: Option<String>,
+    /// Simulated time ds_controller's link-distance damper held a link back (s).
+    #[serde(default)]
+    pub approach_limited_s: f64,
+    /// … per link (s).
+    #[serde(default)]
+    pub approach_limited_links: BTreeMap<String, f64>,
 }
 
 /// Over all trials.
