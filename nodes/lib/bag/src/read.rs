@@ -13,6 +13,12 @@ const MAGIC_LEN: usize = 8;
 /// Opcode (1 byte) + record length (8 bytes).
 const RECORD_PREFIX: usize = 9;
 
+/// Largest uncompressed chunk read, bytes. Writers cut chunks at a few MB (ours at the `mcap`
+/// crate's default); a chunk header that declares more is damage or a hostile file, and is
+/// refused before the decompressor allocates it (a flipped bit there once asked for 7.6 EB and
+/// aborted the process).
+pub const MAX_CHUNK_BYTES: u64 = 256 << 20;
+
 /// One channel of a bag: a topic, its type and schema.
 #[derive(Debug)]
 pub struct ChannelInfo {
@@ -591,6 +597,15 @@ impl Messages<'_> {
         };
         let mut batch = Vec::new();
         match record {
+            Record::Chunk { header, .. } if header.uncompressed_size > MAX_CHUNK_BYTES => {
+                let reason = format!(
+                    "chunk declares {} bytes uncompressed (more than the {} MiB a chunk may hold)",
+                    header.uncompressed_size,
+                    MAX_CHUNK_BYTES >> 20
+                );
+                self.pending.push_back(Err(self.reader.corrupt(seg.offset, reason)));
+                return;
+            }
             Record::Chunk { header, data } => {
                 let records = match read_chunk(header, &data) {
                     Ok(r) => r,
@@ -668,10 +683,55 @@ impl Messages<'_> {
 
 /// Decompresses a whole chunk (checking its CRC) before any of its records is used, so a
 /// damaged chunk yields nothing rather than half-trusted messages.
-fn read_chunk(header: ChunkHeader, data: &[u8]) -> mcap::McapResult<Vec<Record<'static>>> {
-    mcap::read::ChunkReader::new(header, data)?
-        .map(|r| r.map(Record::into_owned))
-        .collect()
+///
+/// Decompression is bounded by the header's `uncompressed_size` (itself at most
+/// [`MAX_CHUNK_BYTES`]) and the records inside are walked here, each length checked against
+/// what is left: the `mcap` crate's chunk reader reserves whatever a record's length field
+/// says, and a damaged one (found by the reliability fuzzer) aborted the process.
+fn read_chunk(header: ChunkHeader, data: &[u8]) -> std::result::Result<Vec<Record<'static>>, String> {
+    let size = usize::try_from(header.uncompressed_size).map_err(|_| "uncompressed size overflows".to_owned())?;
+    let plain: std::borrow::Cow<'_, [u8]> = match header.compression.as_str() {
+        "" => std::borrow::Cow::Borrowed(data),
+        "zstd" => std::borrow::Cow::Owned(
+            zstd::bulk::decompress(data, size).map_err(|e| format!("zstd: {e}"))?,
+        ),
+        "lz4" => {
+            use std::io::Read as _;
+            let mut out = Vec::with_capacity(size);
+            lz4::Decoder::new(data)
+                .map_err(|e| format!("lz4: {e}"))?
+                .take(header.uncompressed_size.saturating_add(1))
+                .read_to_end(&mut out)
+                .map_err(|e| format!("lz4: {e}"))?;
+            std::borrow::Cow::Owned(out)
+        }
+        other => return Err(format!("unsupported compression {other:?}")),
+    };
+    if plain.len() != size {
+        return Err(format!("{} bytes uncompressed, header says {size}", plain.len()));
+    }
+    if header.uncompressed_crc != 0 {
+        let crc = crc32fast::hash(&plain);
+        if crc != header.uncompressed_crc {
+            return Err(format!("CRC {crc:#010x}, header says {:#010x}", header.uncompressed_crc));
+        }
+    }
+    let mut records = Vec::new();
+    let mut rest: &[u8] = &plain;
+    while !rest.is_empty() {
+        let (Some(&opcode), Some(len)) = (rest.first(), rest.get(1..9)) else {
+            return Err(format!("record header cut off, {} bytes before the chunk's end", rest.len()));
+        };
+        let len = u64::from_le_bytes(len.try_into().map_err(|_| "record length".to_owned())?);
+        let body = usize::try_from(len)
+            .ok()
+            .and_then(|len| rest.get(9..9usize.checked_add(len)?))
+            .ok_or_else(|| format!("record (opcode {opcode:#04x}) of {len} bytes overruns the chunk ({} left)", rest.len() - 9))?;
+        let record = mcap::parse_record(opcode, body).map_err(|e| format!("record (opcode {opcode:#04x}): {e}"))?;
+        records.push(record.into_owned());
+        rest = &rest[9 + body.len()..];
+    }
+    Ok(records)
 }
 
 impl Iterator for Messages<'_> {

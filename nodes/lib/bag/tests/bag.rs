@@ -366,6 +366,39 @@ fn corrupt_chunk_is_reported_and_reading_goes_on() -> TestResult {
     Ok(())
 }
 
+/// A chunk header whose `uncompressed_size` was damaged (found by the reliability fuzzer: the
+/// decompressor allocated 7.6 EB and the process aborted) is a per-chunk error; later chunks
+/// are still read.
+#[test]
+fn chunk_declaring_an_absurd_size_is_refused_without_allocating_it() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("good.mcap");
+    write_depth_bag(&path, 24)?;
+    let mut bytes = std::fs::read(&path)?;
+    // Walk the top-level records (opcode u8, length u64) to the first chunk (opcode 0x06):
+    // message_start_time u64, message_end_time u64, then uncompressed_size u64.
+    let mut at = 8;
+    while bytes[at] != 0x06 {
+        let len = u64::from_le_bytes(bytes[at + 1..at + 9].try_into()?);
+        at += 9 + usize::try_from(len)?;
+    }
+    let size_at = at + 9 + 16;
+    bytes[size_at..size_at + 8].copy_from_slice(&0x6a73_6f6e_2d74_6f6fu64.to_le_bytes());
+    let bad = dir.path().join("huge-chunk.mcap");
+    std::fs::write(&bad, &bytes)?;
+    let reader = BagReader::open_recoverable(&bad)?;
+    let (mut ok, mut errors) = (0, Vec::new());
+    for m in reader.messages() {
+        match m {
+            Ok(_) => ok += 1,
+            Err(e) => errors.push(e.to_string()),
+        }
+    }
+    assert!(errors.iter().any(|e| e.contains("declares") && e.contains("huge-chunk.mcap")), "{errors:?}");
+    assert!(ok > 0, "the chunks after the damaged one are read");
+    Ok(())
+}
+
 #[test]
 fn wrong_schema_or_payload_for_a_known_type_is_a_per_message_error() -> TestResult {
     let dir = tempfile::tempdir()?;
