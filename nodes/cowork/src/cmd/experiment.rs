@@ -72,6 +72,9 @@ pub struct ExperimentArgs {
     /// the thesis's controller alone).
     #[arg(long, default_value = "config/ds_controller.yaml")]
     pub ds_params: PathBuf,
+    /// human_observer's parameter file.
+    #[arg(long, default_value = "config/human_observer.yaml")]
+    pub observer_params: PathBuf,
     /// Wall-clock seconds to wait for every node to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,
@@ -220,8 +223,10 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
             );
         }
     }
-    if !args.ds_params.is_file() {
-        bail!("--ds-params {}: no such file", args.ds_params.display());
+    for (opt, p) in [("--ds-params", &args.ds_params), ("--observer-params", &args.observer_params)] {
+        if !p.is_file() {
+            bail!("{opt} {}: no such file", p.display());
+        }
     }
     let model = RobotModel::from_urdf_file(root.join("config/robot/lwr4plus.urdf"))?;
     shutdown::install();
@@ -477,7 +482,7 @@ fn run_trial(
     wall(&mut ds_args);
     let mut obs_args = vec![
         "--params".into(),
-        "config/human_observer.yaml".into(),
+        args.observer_params.display().to_string(),
         "--use-sim-time".into(),
         "--gestures".into(),
         String::new(),
