@@ -213,7 +213,7 @@ impl RosNode {
     }
 
     /// Topics seen on the domain so far, with their ROS types (`pkg/msg/Name`); DDS-internal
-    /// topics are left out.
+    /// topics and ros2-client's own `/clock` reader are left out (see [`is_client_internal`]).
     pub fn discovered_topics(&self) -> Vec<TopicInfo> {
         let mut topics: Vec<TopicInfo> = self
             .context
@@ -225,11 +225,19 @@ impl RosNode {
                     type_name: ros_type_name(&t.type_name)?,
                 })
             })
+            .filter(|t| !is_client_internal(t))
             .collect();
         topics.sort();
         topics.dedup();
         topics
     }
+}
+
+/// Whether `topic` is ros2-client's own reader of `/clock`: every ros2-client node subscribes
+/// `/clock` typed `builtin_interfaces/msg/Time` (its sim-time support), so without this filter
+/// `cowork topic list` showed `/clock` twice. The graph's clock is `rosgraph_msgs/msg/Clock`.
+fn is_client_internal(topic: &TopicInfo) -> bool {
+    topic.name == "/clock" && topic.type_name == "builtin_interfaces/msg/Time"
 }
 
 /// `rt/joint_states` → `/joint_states`; non-topic DDS names (services, discovery) → None.
@@ -372,5 +380,13 @@ mod tests {
         );
         assert_eq!(ros_type_name("rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_").as_deref(),
             Some("rmw_dds_common/msg/ParticipantEntitiesInfo"));
+    }
+
+    #[test]
+    fn only_the_clients_own_clock_reader_is_hidden() {
+        let topic = |name: &str, type_name: &str| TopicInfo { name: name.into(), type_name: type_name.into() };
+        assert!(is_client_internal(&topic("/clock", "builtin_interfaces/msg/Time")));
+        assert!(!is_client_internal(&topic("/clock", "rosgraph_msgs/msg/Clock")));
+        assert!(!is_client_internal(&topic("/stamp", "builtin_interfaces/msg/Time")));
     }
 }
