@@ -65,6 +65,9 @@ pub struct ObserverNode {
     markers: MarkerArray,
     states: u64,
     gestures: u64,
+    /// The node's clock at the last [`Self::set_clock`] / [`Self::on_tick`], s: when skeleton
+    /// frames arrive (`None`: at their stamps).
+    clock: Option<f64>,
 }
 
 /// Namespace of the capsule body markers (id = person index × 16 + capsule).
@@ -106,6 +109,7 @@ impl ObserverNode {
             markers: MarkerArray::default(),
             states: 0,
             gestures: 0,
+            clock: None,
         })
     }
 
@@ -157,9 +161,19 @@ impl ObserverNode {
         changed
     }
 
-    /// `/human/skeleton`: always gives a state to publish (fail closed on bad frames).
+    /// The node's clock now (s): frames handled from here on arrived at this time (a person
+    /// is dropped when no frame has arrived for `person_timeout_s`, however the frames are
+    /// stamped; late frames fail the state closed instead).
+    pub fn set_clock(&mut self, now: f64) {
+        if now.is_finite() {
+            self.clock = Some(now);
+        }
+    }
+
+    /// `/human/skeleton`, arrived at the last [`Self::set_clock`] (or tick) time: always gives
+    /// a state to publish (fail closed on bad or late frames).
     pub fn on_skeleton(&mut self, msg: &Skeleton) -> SkeletonOutput {
-        let out = self.observer.on_skeleton(msg);
+        let out = self.observer.on_skeleton_at(msg, self.clock);
         let warnings = out
             .warnings
             .iter()
@@ -182,6 +196,7 @@ impl ObserverNode {
     /// The steady-rate publication at `now` (s): a state when none went out for a period
     /// (people silent too long are dropped first).
     pub fn on_tick(&mut self, now: f64) -> Option<HumanState> {
+        self.set_clock(now);
         let period = 1.0 / self.params.state_rate_hz;
         if now - self.last_state < period && now >= self.last_state {
             return None;

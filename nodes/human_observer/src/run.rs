@@ -58,6 +58,10 @@ pub fn run(mut node: RosNode, mut observer: ObserverNode, options: &RunOptions) 
     };
     while !stop_requested() {
         let mut any = false;
+        // Frames handled below arrived now (the node's clock): silence is judged by arrival.
+        if node.clock_started() {
+            observer.set_clock(node.now().to_secs_f64());
+        }
         while let Some(m) = joints.take() {
             if let Err(w) = observer.on_joint_state(&m) {
                 warnings.warn(&w);

@@ -1,6 +1,13 @@
 //! Far / interaction with hysteresis and α_h (thesis Sec. 5.1.3, eq. 5.3): 0.3 m/s far,
 //! 0.1 m/s interaction, 0 after a stop gesture or the spoken `stop` until a `come` gesture or
 //! the spoken `repeat`.
+//!
+//! Interaction starts at once when the body comes closer than `interaction_enter_m` (or the
+//! distance becomes unknown: fail closed), and ends only when the body has stayed further
+//! than `interaction_leave_m` for `interaction_dwell_s`: slowing down is never delayed,
+//! speeding up waits until the person has clearly gone. Without the dwell, any signal that
+//! spends time inside the hysteresis band and has excursions of more than the band's width
+//! (10 cm) — see `README.md`, "Mode flicker" — switches α_h back and forth many times a second.
 
 use serde::{Deserialize, Serialize};
 
@@ -34,6 +41,8 @@ pub struct ModeConfig {
     pub interaction_enter_m: f64,
     /// Interaction ends when the body is further than this (> enter: hysteresis), m.
     pub interaction_leave_m: f64,
+    /// ... for at least this long without interruption (and with the distance known), s.
+    pub interaction_dwell_s: f64,
     /// α_h with nobody close, m/s.
     pub far_speed: f64,
     /// α_h while interacting, m/s.
@@ -53,6 +62,7 @@ impl Default for ModeConfig {
         Self {
             interaction_enter_m: 0.8,
             interaction_leave_m: 0.9,
+            interaction_dwell_s: 1.0,
             far_speed: 0.3,
             interaction_speed: 0.1,
             stop_gestures: vec!["stop".into()],
@@ -68,6 +78,7 @@ impl ModeConfig {
     pub fn validate(&self, place: &str) -> Result<()> {
         check(&format!("{place}interaction_enter_m"), self.interaction_enter_m, 0.0, 20.0, "must be in [0, 20] m")?;
         check(&format!("{place}interaction_leave_m"), self.interaction_leave_m, self.interaction_enter_m, 20.0, "must be in [interaction_enter_m, 20] m")?;
+        check(&format!("{place}interaction_dwell_s"), self.interaction_dwell_s, 0.0, 60.0, "must be in [0, 60] s")?;
         check(&format!("{place}far_speed"), self.far_speed, 0.0, 2.0, "must be in [0, 2] m/s")?;
         check(&format!("{place}interaction_speed"), self.interaction_speed, 0.0, self.far_speed, "must be in [0, far_speed] m/s")?;
         for (name, list) in [
@@ -99,13 +110,15 @@ pub struct SpeedGovernor {
     config: ModeConfig,
     mode: Mode,
     stopped: Option<StopCause>,
+    /// Since when (s) the distance has been beyond `interaction_leave_m` while interacting.
+    clear_since: Option<f64>,
 }
 
 impl SpeedGovernor {
     /// Starts far, not stopped.
     pub fn new(config: ModeConfig) -> Result<Self> {
         config.validate("mode.")?;
-        Ok(Self { config, mode: Mode::Far, stopped: None })
+        Ok(Self { config, mode: Mode::Far, stopped: None, clear_since: None })
     }
 
     /// The configuration.
@@ -113,23 +126,38 @@ impl SpeedGovernor {
         &self.config
     }
 
-    /// Feeds the current minimum body–robot distance (m; `None`: unknown → interaction, fail
-    /// closed). Returns the mode.
-    pub fn on_distance(&mut self, distance: Option<f64>) -> Mode {
-        self.mode = match distance {
-            Some(d) if d.is_finite() => match self.mode {
-                Mode::Far if d < self.config.interaction_enter_m => Mode::Interaction,
-                Mode::Interaction if d > self.config.interaction_leave_m => Mode::Far,
-                m => m,
-            },
-            _ => Mode::Interaction,
-        };
+    /// Feeds the minimum body–robot distance at time `t` (s; `None`: unknown → interaction,
+    /// fail closed). Returns the mode. Times may come slightly out of order (frame stamps and
+    /// ticks); a `t` before the start of the current clear run never ends it.
+    pub fn on_distance(&mut self, distance: Option<f64>, t: f64) -> Mode {
+        let c = &self.config;
+        match (self.mode, distance.filter(|d| d.is_finite())) {
+            (_, None) => {
+                self.mode = Mode::Interaction;
+                self.clear_since = None;
+            }
+            (Mode::Far, Some(d)) if d < c.interaction_enter_m => {
+                self.mode = Mode::Interaction;
+                self.clear_since = None;
+            }
+            (Mode::Far, Some(_)) => {}
+            (Mode::Interaction, Some(d)) if d > c.interaction_leave_m => {
+                let since = *self.clear_since.get_or_insert(t);
+                if t - since >= c.interaction_dwell_s {
+                    self.mode = Mode::Far;
+                    self.clear_since = None;
+                }
+            }
+            (Mode::Interaction, Some(_)) => self.clear_since = None,
+        }
         self.mode
     }
 
-    /// Nobody tracked any more: far (the stop latch is kept).
+    /// Nobody tracked any more (every person silent for longer than the tracker's timeout):
+    /// far at once (the stop latch is kept).
     pub fn on_nobody(&mut self) {
         self.mode = Mode::Far;
+        self.clear_since = None;
     }
 
     /// A recognised gesture; returns true when it changed the stop latch.
@@ -189,15 +217,15 @@ mod tests {
 
     #[test]
     fn hysteresis_and_the_stop_latch() {
-        let mut g = SpeedGovernor::new(ModeConfig::default()).expect("governor");
-        assert_eq!(g.on_distance(Some(1.0)), Mode::Far);
-        assert_eq!(g.on_distance(Some(0.79)), Mode::Interaction);
-        assert_eq!(g.on_distance(Some(0.85)), Mode::Interaction);
-        assert_eq!(g.on_distance(Some(0.91)), Mode::Far);
-        assert_eq!(g.on_distance(Some(0.85)), Mode::Far);
+        let mut g = SpeedGovernor::new(ModeConfig { interaction_dwell_s: 0.0, ..Default::default() }).expect("governor");
+        assert_eq!(g.on_distance(Some(1.0), 0.0), Mode::Far);
+        assert_eq!(g.on_distance(Some(0.79), 0.1), Mode::Interaction);
+        assert_eq!(g.on_distance(Some(0.85), 0.2), Mode::Interaction);
+        assert_eq!(g.on_distance(Some(0.91), 0.3), Mode::Far);
+        assert_eq!(g.on_distance(Some(0.85), 0.4), Mode::Far);
         assert_eq!(g.speed(true), 0.3);
-        assert_eq!(g.on_distance(None), Mode::Interaction, "unknown distance fails closed");
-        assert_eq!(g.on_distance(Some(f64::NAN)), Mode::Interaction);
+        assert_eq!(g.on_distance(None, 0.5), Mode::Interaction, "unknown distance fails closed");
+        assert_eq!(g.on_distance(Some(f64::NAN), 0.6), Mode::Interaction);
         assert_eq!(g.speed(true), 0.1);
         assert!(g.on_gesture("stop"));
         assert_eq!(g.speed(true), 0.0);
@@ -212,7 +240,30 @@ mod tests {
     }
 
     #[test]
+    fn interaction_ends_only_after_the_dwell_and_starts_at_once() {
+        let mut g = SpeedGovernor::new(ModeConfig::default()).expect("governor");
+        assert_eq!(g.on_distance(Some(0.7), 0.0), Mode::Interaction, "slowing down is immediate");
+        // Clear for 0.9 s, then back inside the band: the clear run starts again.
+        for k in 0..=9 {
+            assert_eq!(g.on_distance(Some(0.95), 0.1 + 0.1 * k as f64), Mode::Interaction);
+        }
+        assert_eq!(g.on_distance(Some(0.85), 1.05), Mode::Interaction);
+        assert_eq!(g.on_distance(Some(0.95), 1.1), Mode::Interaction);
+        assert_eq!(g.on_distance(Some(0.95), 1.5), Mode::Interaction);
+        assert_eq!(g.on_distance(Some(0.95), 0.5), Mode::Interaction, "a time before the run does not end it");
+        assert_eq!(g.on_distance(Some(0.95), 2.05), Mode::Interaction);
+        assert_eq!(g.on_distance(Some(0.95), 2.1), Mode::Far, "clear for 1.0 s");
+        assert_eq!(g.on_distance(Some(0.79), 2.2), Mode::Interaction);
+        assert_eq!(g.on_distance(None, 2.3), Mode::Interaction);
+        assert_eq!(g.on_distance(Some(2.0), 2.4), Mode::Interaction, "unknown distance restarts the clear run");
+        g.on_nobody();
+        assert_eq!(g.mode(), Mode::Far, "nobody: far at once");
+    }
+
+    #[test]
     fn bad_configs_are_rejected() {
+        let c = ModeConfig { interaction_dwell_s: -0.1, ..Default::default() };
+        assert!(SpeedGovernor::new(c).is_err());
         let c = ModeConfig { interaction_leave_m: 0.5, ..Default::default() };
         assert!(SpeedGovernor::new(c).is_err());
         let c = ModeConfig { interaction_speed: 0.5, ..Default::default() };

@@ -32,8 +32,13 @@ pub struct ObserverConfig {
     pub depth_measurement_noise_m: f64,
     /// Far / interaction and α_h.
     pub mode: ModeConfig,
-    /// A person with no frame for longer than this is dropped, s.
+    /// A person with no frame for longer than this is dropped, s (judged by when frames
+    /// arrive on the node's clock, see [`Observer::on_skeleton_at`]).
     pub person_timeout_s: f64,
+    /// A tracked person whose newest frame is stamped further than this behind the time a
+    /// state is made for is stale: the state fails closed (interaction) until fresh frames
+    /// arrive, s. Late frames are a person who is there, never "nobody".
+    pub max_skeleton_age_s: f64,
     /// At most this many people are tracked; frames of further ids are ignored (and slow the
     /// robot: someone is there who cannot be tracked).
     pub max_people: usize,
@@ -52,6 +57,7 @@ impl Default for ObserverConfig {
             depth_measurement_noise_m: 0.015,
             mode: ModeConfig::default(),
             person_timeout_s: 0.5,
+            max_skeleton_age_s: 0.3,
             max_people: 4,
             max_joint_state_age_s: 0.5,
         }
@@ -67,6 +73,7 @@ impl ObserverConfig {
         check(&format!("{place}depth_measurement_noise_m"), self.depth_measurement_noise_m, 1e-6, 1.0, "must be in [1e-6, 1] m")?;
         self.mode.validate(&format!("{place}mode."))?;
         check(&format!("{place}person_timeout_s"), self.person_timeout_s, 1e-3, 60.0, "must be in [0.001, 60] s")?;
+        check(&format!("{place}max_skeleton_age_s"), self.max_skeleton_age_s, 1e-3, 60.0, "must be in [0.001, 60] s")?;
         check(&format!("{place}max_people"), self.max_people as f64, 1.0, 64.0, "must be 1 to 64")?;
         check(&format!("{place}max_joint_state_age_s"), self.max_joint_state_age_s, 1e-3, 60.0, "must be in [0.001, 60] s")
     }
@@ -133,13 +140,15 @@ pub struct Track {
     pub person_id: u32,
     /// Stamp of the last accepted frame, s.
     pub last_stamp: f64,
+    /// When the last frame of this person (accepted or not) arrived, on the node's clock, s.
+    pub heard_at: f64,
     /// Last accepted pose.
     pub pose: SkeletonPose,
     /// Right and left hand filters.
     pub hands: [ConstantVelocityKf; 2],
     /// Distance at the last accepted frame (`None`: no fresh joint state).
     pub distance: Option<BodyDistance>,
-    /// Stamp of the first of the current run of rejected frames.
+    /// Arrival time (node clock, s) of the first of the current run of rejected frames.
     pub bad_since: Option<f64>,
     gestures: Option<GestureTracker>,
 }
@@ -152,7 +161,8 @@ pub struct Observer {
     governor: SpeedGovernor,
     classifier: Option<Classifier>,
     tracks: BTreeMap<u32, Track>,
-    /// Last time an untracked person's frame had to be ignored (bad, or no room).
+    /// Arrival time (node clock, s) of the last untracked person's frame that had to be
+    /// ignored (bad, or no room).
     untracked_at: Option<f64>,
     last_gesture: Option<GestureReport>,
     rejected: u64,
@@ -225,7 +235,7 @@ impl Observer {
 
     fn drop_silent(&mut self, now: f64) {
         let timeout = self.config.person_timeout_s;
-        self.tracks.retain(|_, t| now - t.last_stamp <= timeout && t.bad_since.is_none_or(|b| now - b <= timeout));
+        self.tracks.retain(|_, t| now - t.heard_at <= timeout && t.bad_since.is_none_or(|b| now - b <= timeout));
         if self.untracked_at.is_some_and(|t| now - t > timeout) {
             self.untracked_at = None;
         }
@@ -234,22 +244,35 @@ impl Observer {
         }
     }
 
-    /// A `/human/skeleton` frame. Never fails: a frame that cannot be used is reported in
-    /// `warnings` (naming the field) and makes the state fail closed until the person sends a
-    /// good frame again or is dropped.
+    /// A `/human/skeleton` frame that arrives when the node's clock reads its own stamp (a bag
+    /// replayed offline, a test); see [`Self::on_skeleton_at`].
     pub fn on_skeleton(&mut self, msg: &Skeleton) -> FrameOutcome {
+        self.on_skeleton_at(msg, None)
+    }
+
+    /// A `/human/skeleton` frame that arrived at `received` (s, the node's clock; `None`: at
+    /// its stamp). Never fails: a frame that cannot be used is reported in `warnings` (naming
+    /// the field) and makes the state fail closed until the person sends a good frame again
+    /// or is dropped.
+    ///
+    /// Silence is judged by arrival, staleness by stamp: a person whose frames keep arriving,
+    /// however late, is never dropped as gone (which would report nobody, far speed, while
+    /// they stand beside the robot); their late frames make the state fail closed instead
+    /// (`max_skeleton_age_s`, `max_joint_state_age_s`).
+    pub fn on_skeleton_at(&mut self, msg: &Skeleton, received: Option<f64>) -> FrameOutcome {
         let stamp = msg.header.stamp.to_secs_f64();
+        let arrival = received.filter(|r| r.is_finite()).unwrap_or(stamp);
         let mut warnings = Vec::new();
         let id = msg.person_id;
-        if stamp.is_finite() {
-            self.drop_silent(stamp);
+        if arrival.is_finite() {
+            self.drop_silent(arrival);
         }
         if !self.tracks.contains_key(&id) && self.tracks.len() >= self.config.max_people {
             warnings.push(format!(
                 "field `person_id`: person {id} ignored: already tracking {} people (max_people); robot slowed",
                 self.tracks.len()
             ));
-            self.untracked_at = Some(stamp);
+            self.untracked_at = Some(arrival);
             self.rejected += 1;
             return self.outcome(stamp, None, warnings, false);
         }
@@ -257,7 +280,7 @@ impl Observer {
             Ok(f) => f,
             Err(e) => {
                 warnings.push(format!("{e}; robot slowed while the data is unusable"));
-                self.mark_bad(id, stamp);
+                self.mark_bad(id, arrival);
                 return self.outcome(stamp, None, warnings, false);
             }
         };
@@ -269,7 +292,7 @@ impl Observer {
                 "person {id}: field `header.stamp`: {:.6} s is not after the previous frame's {:.6} s; frame ignored",
                 frame.stamp, t.last_stamp
             ));
-            self.mark_bad(id, t.last_stamp);
+            self.mark_bad(id, arrival);
             return self.outcome(stamp, None, warnings, false);
         }
         // Distance at the current joint state, if fresh enough.
@@ -306,7 +329,7 @@ impl Observer {
                     },
                     None => None,
                 };
-                v.insert(Track { person_id: id, last_stamp: f64::NEG_INFINITY, pose: frame.pose.clone(), hands: [r, l], distance: None, bad_since: None, gestures })
+                v.insert(Track { person_id: id, last_stamp: f64::NEG_INFINITY, heard_at: arrival, pose: frame.pose.clone(), hands: [r, l], distance: None, bad_since: None, gestures })
             }
         };
         let r = match frame.source {
@@ -320,6 +343,7 @@ impl Observer {
             }
         }
         track.last_stamp = frame.stamp;
+        track.heard_at = arrival;
         track.bad_since = None;
         track.distance = distance;
         track.pose = frame.pose;
@@ -342,13 +366,14 @@ impl Observer {
         self.outcome(frame.stamp, report, warnings, true)
     }
 
-    fn mark_bad(&mut self, id: u32, stamp: f64) {
+    fn mark_bad(&mut self, id: u32, arrival: f64) {
         self.rejected += 1;
         match self.tracks.get_mut(&id) {
             Some(t) => {
-                t.bad_since.get_or_insert(stamp);
+                t.heard_at = arrival;
+                t.bad_since.get_or_insert(arrival);
             }
-            None => self.untracked_at = Some(stamp),
+            None => self.untracked_at = Some(arrival),
         }
     }
 
@@ -364,7 +389,9 @@ impl Observer {
     }
 
     fn state_at(&mut self, now: f64) -> HumanOutput {
-        let unusable_person = self.untracked_at.is_some() || self.tracks.values().any(|t| t.bad_since.is_some());
+        let max_age = self.config.max_skeleton_age_s;
+        let unusable_person = self.untracked_at.is_some()
+            || self.tracks.values().any(|t| t.bad_since.is_some() || now - t.last_stamp > max_age);
         let unknown_distance = self.tracks.values().any(|t| t.distance.is_none());
         let closest = self
             .tracks
@@ -372,12 +399,14 @@ impl Observer {
             .filter_map(|t| t.distance.as_ref().map(|d| (t, d)))
             .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance));
         let present = !self.tracks.is_empty() || unusable_person;
-        if !self.tracks.is_empty() {
-            let d = if unknown_distance { None } else { closest.map(|c| c.1.distance) };
-            self.governor.on_distance(d);
-        }
         let usable = !unusable_person && !unknown_distance;
-        let mode = if present && !usable { Mode::Interaction } else if present { self.governor.mode() } else { Mode::Far };
+        if present {
+            // Unusable data is an unknown distance: interaction at once, and far again only
+            // after the governor's dwell with good data (no flicker on intermittent bad frames).
+            let d = if usable { closest.map(|c| c.1.distance) } else { None };
+            self.governor.on_distance(d, now);
+        }
+        let mode = if present { self.governor.mode() } else { Mode::Far };
         let (person, distance, link) = match closest {
             Some((t, d)) if usable => (Some(t.person_id), d.distance, d.link.clone()),
             _ => (self.tracks.keys().next().copied(), 0.0, String::new()),
