@@ -7,7 +7,7 @@
 //! (sensor_msgs/JointState, matched by joint name, and to the frame by stamp), `/tf_static`
 //! (tf2_msgs/TFMessage: the transform from the robot base to the image's `frame_id`; until one
 //! arrives the configured `camera_pose` is used), `/manipulated_objects` (cowork_msgs/ObjectStream
-//! from robot_manager: the held object and the target of the running near-object action, whose
+//! from robot_manager: the held object and the object the running action goes to, whose
 //! pixels are removed before fDED so they do not repel the arm — fail closed, see
 //! [`manipulated`]). Only a direct base → camera transform is read; chains are not composed.
 //!

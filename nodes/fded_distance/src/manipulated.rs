@@ -5,8 +5,8 @@
 //!
 //! `robot_manager` says which objects those are on `/manipulated_objects`
 //! (cowork_msgs/ObjectStream, scene names, poses in the base frame, stamped with the time of
-//! the `/lwr/world` report they come from): the object in the gripper and the object of the
-//! running near-object action (NOA). The shapes come from the scene file
+//! the `/lwr/world` report they come from): the object in the gripper and the object the running
+//! action (NOA, or FOA towards an object) goes to. The shapes come from the scene file
 //! (`manipulated.scene`); a pixel is removed when its 3-D point lies inside the object's
 //! shape grown by `manipulated.margin_m`.
 //!

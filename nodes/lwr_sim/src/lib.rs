@@ -140,7 +140,19 @@ pub struct LwrSim {
     camera_clock: FrameClock,
     config_depth: DepthConfig,
     people: People,
+    /// `Some` when wrenches are applied at their header stamps ([`follow_wrench_stamps`](Self::follow_wrench_stamps)).
+    follow: Option<FollowWrench>,
 }
+
+/// Wrenches waiting for their stamp, and the newest stamp received (ns).
+#[derive(Debug, Default)]
+struct FollowWrench {
+    pending: std::collections::VecDeque<WrenchStamped>,
+    newest_ns: Option<i64>,
+}
+
+/// Wrenches waiting for their stamp at most (100 s of a 100 Hz teacher).
+pub const MAX_PENDING_WRENCHES: usize = 10_000;
 
 impl LwrSim {
     /// Wraps a simulator; `config.publish` sets the topic rates.
@@ -167,7 +179,23 @@ impl LwrSim {
                 ..Default::default()
             },
             sim,
+            follow: None,
         }
+    }
+
+    /// Replaying a recorded teacher: from now on every `/external_wrench` is applied when
+    /// simulated time reaches its header stamp (at once when that is past), and once one has
+    /// arrived [`run`] never lets simulated time pass the newest stamp received — the
+    /// simulator waits for a teacher that falls behind, so a demonstration replays the same
+    /// however loaded the machine is. Off by default (wrenches act on arrival).
+    pub fn follow_wrench_stamps(&mut self) {
+        self.follow.get_or_insert_with(FollowWrench::default);
+    }
+
+    /// Whether [`follow_wrench_stamps`](Self::follow_wrench_stamps) holds simulated time: it
+    /// has reached the newest wrench stamp received.
+    pub fn waiting_for_wrench(&self) -> bool {
+        self.follow.as_ref().and_then(|f| f.newest_ns).is_some_and(|n| self.sim.time_ns() >= n)
     }
 
     /// The wrapped simulator.
@@ -202,8 +230,26 @@ impl LwrSim {
         }
     }
 
-    /// Applies an external wrench (see the module docs for its frame).
+    /// Applies an external wrench (see the module docs for its frame); when following wrench
+    /// stamps, one stamped in the future waits for its time (the oldest dropped beyond
+    /// [`MAX_PENDING_WRENCHES`]).
     pub fn on_wrench(&mut self, msg: &WrenchStamped) {
+        let now = self.sim.time_ns();
+        if let Some(f) = self.follow.as_mut() {
+            let stamp = msg.header.stamp.to_nanos();
+            f.newest_ns = Some(f.newest_ns.map_or(stamp, |n| n.max(stamp)));
+            if stamp > now {
+                if f.pending.len() >= MAX_PENDING_WRENCHES {
+                    f.pending.pop_front();
+                }
+                f.pending.push_back(msg.clone());
+                return;
+            }
+        }
+        self.apply_wrench(msg);
+    }
+
+    fn apply_wrench(&mut self, msg: &WrenchStamped) {
         let frame = msg.header.frame_id.as_str();
         let f = &msg.wrench.force;
         let t = &msg.wrench.torque;
@@ -248,6 +294,14 @@ impl LwrSim {
 
     /// Advances one step and says which topics are due.
     pub fn step(&mut self) -> Due {
+        let now = self.sim.time_ns();
+        while let Some(w) = self
+            .follow
+            .as_mut()
+            .and_then(|f| f.pending.front().is_some_and(|w| w.header.stamp.to_nanos() <= now).then(|| f.pending.pop_front()).flatten())
+        {
+            self.apply_wrench(&w);
+        }
         self.sim.step();
         self.steps += 1;
         self.people.expire(self.sim.time_ns());
@@ -391,7 +445,8 @@ fn depth_worker(
 pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>) -> Result<()> {
     let commands = node.subscription::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())?;
     let gripper = node.subscription::<RosString>("/lwr/gripper_command", &qos::reliable())?;
-    let wrenches = node.subscription::<WrenchStamped>("/external_wrench", &qos::reliable())?;
+    // Deep: a replayed teacher may send its wrenches ahead of their stamps.
+    let wrenches = node.subscription::<WrenchStamped>("/external_wrench", &qos::reliable_depth(1000))?;
     // Best effort matches every writer (reliable bags, best-effort trackers).
     let skeletons = node.subscription::<Skeleton>("/human/skeleton", &qos::best_effort_depth(20))?;
     let clock = node.publisher::<Clock>("/clock", &qos::clock())?;
@@ -422,7 +477,7 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
     );
 
     let end_ns = duration.map(|d| (d * 1e9) as i64);
-    let start = Instant::now();
+    let mut start = Instant::now();
     let mut last_report = Instant::now();
     while !cowork_ros::shutdown::requested() {
         if end_ns.is_some_and(|end| lwr.sim.time_ns() >= end) {
@@ -439,6 +494,13 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         }
         while let Some(m) = skeletons.take() {
             lwr.on_skeleton(&m);
+        }
+        if lwr.waiting_for_wrench() {
+            // The replayed teacher is behind: wait for it, and keep the pace from here on.
+            let held = Instant::now();
+            std::thread::sleep(Duration::from_micros(200));
+            start += held.elapsed();
+            continue;
         }
         let due = lwr.step();
         if due.clock {

@@ -32,6 +32,10 @@ struct Args {
     /// Stop after this many simulated seconds (runs until Ctrl-C otherwise).
     #[arg(long)]
     duration: Option<f64>,
+    /// Replaying a recorded teacher: apply each /external_wrench at its header stamp and never
+    /// let simulated time pass the newest stamp received (a slow teacher holds the clock).
+    #[arg(long)]
+    follow_wrench_stamps: bool,
 }
 
 fn main() -> Result<()> {
@@ -49,5 +53,9 @@ fn main() -> Result<()> {
         .with_context(|| format!("scene {} does not fit the robot", args.scene.display()))?;
     let pacing = Pacing::from_args(args.rate, args.max)?;
     let node = cowork_ros::start_node("lwr_sim", false, args.duration)?;
-    lwr_sim::run(node, LwrSim::new(sim, config), pacing, args.duration)
+    let mut lwr = LwrSim::new(sim, config);
+    if args.follow_wrench_stamps {
+        lwr.follow_wrench_stamps();
+    }
+    lwr_sim::run(node, lwr, pacing, args.duration)
 }

@@ -135,3 +135,31 @@ fn world_reports_what_the_simulator_holds_and_where_objects_are() {
     assert_eq!(w.gripper_state, cowork_msgs::msg::WorldState::GRIPPER_CLOSED);
     assert!(w.held_object.is_empty() && w.objects.iter().all(|o| !o.held));
 }
+
+#[test]
+fn following_wrench_stamps_applies_each_at_its_time_and_waits_for_the_teacher() {
+    let push = |t: f64, z: f64| WrenchStamped {
+        header: Header { stamp: cowork_msgs::builtin_interfaces::Time::from_secs_f64(t), frame_id: String::new() },
+        wrench: RosWrench { force: Vector3 { x: 0.0, y: 0.0, z }, ..Default::default() },
+    };
+    let mut n = node();
+    assert!(!n.waiting_for_wrench(), "off by default");
+    n.follow_wrench_stamps();
+    assert!(!n.waiting_for_wrench(), "free until the first wrench");
+    let z0 = n.simulator().tool_pose().translation.z;
+    // A push up stamped 0.05 s ahead waits: nothing moves before its time.
+    n.on_wrench(&push(0.05, 20.0));
+    n.on_wrench(&push(0.10, 20.0));
+    for _ in 0..49 {
+        n.step();
+    }
+    assert!((n.simulator().tool_pose().translation.z - z0).abs() < 1e-9, "no force before 0.05 s");
+    while !n.waiting_for_wrench() {
+        n.step();
+    }
+    // The clock stops at the newest stamp (0.10 s) until the teacher sends more.
+    assert_eq!(n.simulator().time_ns(), 100_000_000);
+    assert!(n.simulator().tool_pose().translation.z > z0 + 1e-4, "pushed up from 0.05 s");
+    n.on_wrench(&push(0.2, 0.0));
+    assert!(!n.waiting_for_wrench());
+}

@@ -12,7 +12,7 @@
 //! | `/lwr/gripper_command` | std_msgs/String `open` / `close` | out |
 //! | `/robot_stream` | cowork_msgs/RobotStream (EE pose, gripper, held object, mode, events, segments) | out |
 //! | `/object_stream` | cowork_msgs/ObjectStream (task names, pose, tool distance, visible) | out |
-//! | `/manipulated_objects` | cowork_msgs/ObjectStream (scene names: the held object and the running NOA's object; stamp and frame of the `/lwr/world` report) | out, to fded_distance, which does not count them as obstacles |
+//! | `/manipulated_objects` | cowork_msgs/ObjectStream (scene names: the held object and the running action's target object; stamp and frame of the `/lwr/world` report) | out, to fded_distance, which does not count them as obstacles |
 //!
 //! [`node`] holds the handlers (no I/O), [`run`] the DDS loop, [`params`] the parameters.
 
@@ -44,6 +44,6 @@ pub mod topics {
     pub const ROBOT_STREAM: &str = "/robot_stream";
     /// Out: objects for the supervisor.
     pub const OBJECT_STREAM: &str = "/object_stream";
-    /// Out: the objects being manipulated (held, or the running NOA's), for fded_distance.
+    /// Out: the objects being manipulated (held, or the running action's target), for fded_distance.
     pub const MANIPULATED: &str = "/manipulated_objects";
 }

@@ -351,8 +351,8 @@ impl RobotManagerNode {
     }
 
     /// The objects of `world` the robot manipulates now, which fded_distance must not see as
-    /// obstacles: the held object and the object of the running near-object action (or of the
-    /// grasp that follows it) — scene names, poses of `world`, stamped with `world`'s stamp
+    /// obstacles: the held object and the object the running action goes to
+    /// ([`cowork_manager::Manager::target_object`]) — scene names, poses of `world`, stamped with `world`'s stamp
     /// and frame (the pose's time). Empty when there is none; every other object, the table
     /// and people stay obstacles.
     pub fn manipulated(&self, world: &WorldState) -> ObjectStream {

@@ -241,15 +241,18 @@ impl Manager {
         self.current.as_ref().map(|r| r.label.as_str())
     }
 
-    /// The object (task name) the running action works on, which must not repel the arm: the
-    /// object of a running near-object action (approach, grasp, pour over it) and, during a
-    /// `gripper(close)`, the object of the near-object action before it. `None` for far-object
-    /// actions, holds, teaching and when nothing runs. The held object is the world's
+    /// The object (task name) the running action goes to, which must not repel the arm: the
+    /// object in whose frame the running motion's goal lies — a near-object action (approach,
+    /// grasp, pour over it) or a far-object action towards it (its goal is 12 cm from the
+    /// object, well inside the obstacle modulation's reach: as an obstacle the bottle slowed
+    /// the approach `foa1(water)` from 5 s to over 60 s) — and, during a `gripper(close)`, the
+    /// object of the near-object action before it. `None` for actions in the world frame,
+    /// holds, teaching and when nothing runs. The held object is the world's
     /// ([`World::held`]), not this.
     pub fn target_object(&self) -> Option<&str> {
         let cur = self.current.as_ref()?;
         match (cur.kind, cur.gripper) {
-            (ActionKind::Noa, _) if cur.object != WORLD => Some(cur.object.as_str()),
+            (ActionKind::Noa | ActionKind::Foa, _) if cur.object != WORLD => Some(cur.object.as_str()),
             (ActionKind::Gripper, Some(GripperCommand::Close)) => self.last_noa_object.as_deref(),
             _ => None,
         }

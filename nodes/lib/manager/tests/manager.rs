@@ -325,7 +325,7 @@ fn the_target_object_is_the_running_noas_and_the_grasps_after_it() {
     let mut d = taught();
     assert_eq!(d.manager.target_object(), None, "nothing runs");
     run_action(&mut d, 1, "foa1(water)");
-    assert_eq!(d.manager.target_object(), None, "a far-object action avoids every object");
+    assert_eq!(d.manager.target_object(), Some("water"), "the far-object action towards the bottle");
     run_action(&mut d, 2, "noa2(water)");
     assert_eq!(d.manager.target_object(), Some("water"), "approach and grasp");
     // A reused NOA on another object targets that object.
@@ -343,10 +343,12 @@ fn the_target_object_is_the_running_noas_and_the_grasps_after_it() {
     d.world.step(0.01);
     d.feed_world();
     assert_eq!(d.manager.target_object(), None, "grasp done: the bottle is the held object now, not a target");
-    // A FOA after it clears the grasp target; stop clears everything.
+    // Towards the cup; a FOA in the world frame targets nothing; stop clears everything.
     run_action(&mut d, 6, "foa4(cup)");
-    assert_eq!(d.manager.target_object(), None);
-    run_action(&mut d, 7, "noa5(cup)");
+    assert_eq!(d.manager.target_object(), Some("cup"));
+    run_action(&mut d, 7, "foa6(world)");
+    assert_eq!(d.manager.target_object(), None, "placing in the world frame: every object repels");
+    run_action(&mut d, 8, "noa5(cup)");
     assert_eq!(d.manager.target_object(), Some("cup"));
     d.say("stop");
     assert_eq!(d.manager.target_object(), None, "held: nothing is approached");
