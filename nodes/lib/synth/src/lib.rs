@@ -19,6 +19,7 @@
 mod depth;
 mod error;
 pub mod gestures;
+pub mod kitchen;
 mod plan;
 pub mod pour;
 mod replay;

@@ -35,22 +35,86 @@ pub const PLACE_XY: [f64; 2] = [0.42, 0.20];
 /// Tilt of the bottle while pouring, rad (the mouth points below the horizon).
 pub const POUR_TILT_RAD: f64 = 2.0;
 
-/// The planned demonstration.
+/// The planned demonstration (the pour, or another take–use–place subtask of the kitchen).
 #[derive(Debug, Clone)]
 pub struct PourPlan {
     /// Tool path, base frame.
     pub path: CartesianPath,
     /// Speech commands: (time s, words).
     pub speech: Vec<(f64, &'static str)>,
-    /// Time window of the pour (bottle fully tilted), s.
+    /// Time window of the use at the target (bottle fully tilted, stirring), s.
     pub pour_window: (f64, f64),
-    /// Where the bottle's mouth should be while pouring, base frame, m.
+    /// Where the object's tip (the bottle's mouth) should be while used, base frame, m (the
+    /// first stirring point for [`Usage::Stir`]).
     pub pour_mouth: Point3<f64>,
-    /// Intended final pose of the bottle centre (on the table), base frame.
+    /// Intended final pose of the object's centre (on the table), base frame.
     pub place: Isometry3<f64>,
-    /// Bottle height, m.
+    /// Object height, m.
     pub bottle_height: f64,
 }
+
+/// How the held object is used at the target: the near-object action at the target.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Usage {
+    /// The top 6 cm above the target's rim, the object tilted by `tilt_rad` about the horizontal
+    /// axis normal to the object→target direction (mouth towards the target), held 2 s.
+    Pour {
+        /// Tilt, rad.
+        tilt_rad: f64,
+    },
+    /// As `Pour`, then `shakes` times ±`amplitude_rad` about the same axis (a tea bag out of
+    /// its box).
+    Shake {
+        /// Tilt, rad.
+        tilt_rad: f64,
+        /// Shake amplitude, rad.
+        amplitude_rad: f64,
+        /// Number of shakes.
+        shakes: u32,
+    },
+    /// The object's −x end (a spoon's bowl) turned down into the target, `depth_m` below its
+    /// rim, then `turns` circles of `radius_m` in the horizontal plane (stirring).
+    Stir {
+        /// Depth of the tip below the target's rim, m.
+        depth_m: f64,
+        /// Stirring radius, m.
+        radius_m: f64,
+        /// Number of circles.
+        turns: u32,
+    },
+}
+
+/// A kitchen subtask demonstrated kinesthetically (Sec. 4.3.3): take `object` (from above,
+/// `gripper close`), use it at `target`, place it upright at `place_xy` (`gripper open`), retreat.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Demonstration {
+    /// Scenario name (errors).
+    pub scenario: &'static str,
+    /// Scene object taken.
+    pub object: &'static str,
+    /// Scene object it is used at.
+    pub target: &'static str,
+    /// Where the object is placed (centre x, y, base frame), m.
+    pub place_xy: [f64; 2],
+    /// What is done at the target.
+    pub usage: Usage,
+    /// A tool position passed on the way to the object (tool down), base frame, m: keeps the
+    /// teacher out of another object's proximity sphere.
+    pub approach_via: Option<[f64; 3]>,
+    /// A tool position passed while carrying the object to the target, base frame, m.
+    pub carry_via: Option<[f64; 3]>,
+}
+
+/// `kinesthetic-pour`: the bottle poured into the cup (Fig. 4.13, 5.18).
+pub const POUR: Demonstration = Demonstration {
+    scenario: SCENARIO,
+    object: POUR_OBJECT,
+    target: POUR_TARGET,
+    place_xy: PLACE_XY,
+    usage: Usage::Pour { tilt_rad: POUR_TILT_RAD },
+    approach_via: None,
+    carry_via: None,
+};
 
 fn height(shape: &Shape) -> f64 {
     match *shape {
@@ -73,17 +137,22 @@ fn pointing_down(from: &UnitQuaternion<f64>) -> UnitQuaternion<f64> {
     UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x, y, z])))
 }
 
-/// Plans the demonstration in the simulator's scene; `time_scale` stretches every segment
+/// Plans the pour in the simulator's scene; `time_scale` stretches every segment
 /// (1 = natural pace, about 29 s).
 pub fn plan_pour(sim: &Simulator, time_scale: f64) -> Result<PourPlan> {
+    plan_demonstration(sim, &POUR, time_scale)
+}
+
+/// Plans `demo` in the simulator's scene; `time_scale` stretches every segment.
+pub fn plan_demonstration(sim: &Simulator, demo: &Demonstration, time_scale: f64) -> Result<PourPlan> {
     let find = |name: &str| {
         sim.objects().iter().find(|o| o.name == name).ok_or_else(|| SynthError::Plan {
-            scenario: SCENARIO,
-            reason: format!("the scene has no object `{name}` (kitchen.yaml has bottle and cup)"),
+            scenario: demo.scenario,
+            reason: format!("the scene has no object `{name}` (kitchen.yaml has bottle, cup, coffee, spoon and tea)"),
         })
     };
-    let bottle = find(POUR_OBJECT)?;
-    let cup = find(POUR_TARGET)?;
+    let bottle = find(demo.object)?;
+    let cup = find(demo.target)?;
     let hb = height(&bottle.shape);
     let hc = height(&cup.shape);
     let b = bottle.pose.translation.vector;
@@ -93,35 +162,13 @@ pub fn plan_pour(sim: &Simulator, time_scale: f64) -> Result<PourPlan> {
     let at = |p: Vector3<f64>, r: UnitQuaternion<f64>| Isometry3::from_parts(Translation3::from(p), r);
     let ts = |s: f64| s * time_scale;
 
-    // Grasp from above, the tool point 2 cm over the bottle's top (within grasp reach).
+    // Grasp from above, the tool point 2 cm over the object's top (within grasp reach).
     let grasp = at(b + Vector3::new(0.0, 0.0, 0.5 * hb + 0.02), down);
     let pre_grasp = at(grasp.translation.vector + Vector3::new(0.0, 0.0, 0.12), down);
     let lift = at(grasp.translation.vector + Vector3::new(0.0, 0.0, 0.20), down);
-    // Bottle pose in the tool frame once grasped, and its mouth (top centre) in the tool frame.
+    // Object pose in the tool frame once grasped.
     let held = grasp.inverse() * bottle.pose;
-    let mouth_tool = held * Point3::new(0.0, 0.0, 0.5 * hb);
-    // Pour: mouth 6 cm above the cup's rim, bottle tilted about the horizontal axis normal to
-    // the bottle→cup direction so the mouth points towards the cup and below the horizon.
-    let to_cup = Vector3::new(c.x - b.x, c.y - b.y, 0.0);
-    let axis = if to_cup.norm() > 1e-6 {
-        Vector3::z().cross(&to_cup.normalize())
-    } else {
-        Vector3::x()
-    };
-    let tilt = UnitQuaternion::from_scaled_axis(axis * POUR_TILT_RAD) * down;
-    let mouth = Point3::new(c.x, c.y, c.z + 0.5 * hc + 0.06);
-    let tool_for_mouth = |m: Point3<f64>, r: UnitQuaternion<f64>| at(m.coords - r * mouth_tool.coords, r);
-    let pre_pour = tool_for_mouth(mouth + Vector3::new(0.0, 0.0, 0.10), down);
-    let pour = tool_for_mouth(mouth, tilt);
-    // Place: bottle upright, its bottom 1 cm over the table (it drops when released).
-    let place = Isometry3::from_parts(
-        Translation3::new(PLACE_XY[0], PLACE_XY[1], sim.scene().table_top_z() + 0.5 * hb),
-        bottle.pose.rotation,
-    );
-    let place_tool = Isometry3::translation(0.0, 0.0, 0.01) * place * held.inverse();
-    let pre_place = at(place_tool.translation.vector + Vector3::new(0.0, 0.0, 0.12), down);
-    let retreat = at(place_tool.translation.vector + Vector3::new(0.0, 0.0, 0.15), down);
-
+    let tool_for = |tip_tool: Point3<f64>, m: Point3<f64>, r: UnitQuaternion<f64>| at(m.coords - r * tip_tool.coords, r);
     let mut path = CartesianPath::new(start);
     let mut speech = Vec::new();
     let mut say = |path: &CartesianPath, after: f64, words: &'static str| {
@@ -130,16 +177,76 @@ pub fn plan_pour(sim: &Simulator, time_scale: f64) -> Result<PourPlan> {
     say(&path, ts(0.5), "teach");
     path.hold(ts(1.5));
     // take
+    if let Some(v) = demo.approach_via {
+        path.move_to(at(Vector3::from(v), down), ts(2.5));
+    }
     path.move_to(pre_grasp, ts(3.0)).move_to(grasp, ts(2.0));
     say(&path, ts(0.5), "gripper close");
     path.hold(ts(1.0)).move_to(lift, ts(2.0));
-    // pour
-    path.move_to(pre_pour, ts(3.5)).move_to(pour, ts(2.5));
-    let pour_start = path.duration();
-    path.hold(ts(2.0));
-    let pour_window = (pour_start, path.duration());
-    path.move_to(pre_pour, ts(2.0));
-    // place
+    if let Some(v) = demo.carry_via {
+        path.move_to(at(Vector3::from(v), down), ts(2.5));
+    }
+    // use
+    let (pour_window, mouth) = match demo.usage {
+        Usage::Pour { tilt_rad } | Usage::Shake { tilt_rad, .. } => {
+            // Pour: mouth 6 cm above the target's rim, the object tilted about the horizontal
+            // axis normal to the object→target direction so the mouth points towards the
+            // target and below the horizon.
+            let mouth_tool = held * Point3::new(0.0, 0.0, 0.5 * hb);
+            let to_cup = Vector3::new(c.x - b.x, c.y - b.y, 0.0);
+            let axis = if to_cup.norm() > 1e-6 {
+                Vector3::z().cross(&to_cup.normalize())
+            } else {
+                Vector3::x()
+            };
+            let tilted = |a: f64| UnitQuaternion::from_scaled_axis(axis * a) * down;
+            let mouth = Point3::new(c.x, c.y, c.z + 0.5 * hc + 0.06);
+            let pre_pour = tool_for(mouth_tool, mouth + Vector3::new(0.0, 0.0, 0.10), down);
+            let pour = tool_for(mouth_tool, mouth, tilted(tilt_rad));
+            path.move_to(pre_pour, ts(3.5)).move_to(pour, ts(2.5));
+            let pour_start = path.duration();
+            path.hold(ts(2.0));
+            if let Usage::Shake { amplitude_rad, shakes, .. } = demo.usage {
+                for _ in 0..shakes {
+                    path.move_to(tool_for(mouth_tool, mouth, tilted(tilt_rad + amplitude_rad)), ts(0.6));
+                    path.move_to(tool_for(mouth_tool, mouth, tilted(tilt_rad - amplitude_rad)), ts(0.6));
+                }
+                path.move_to(pour, ts(0.6));
+            }
+            let window = (pour_start, path.duration());
+            path.move_to(pre_pour, ts(2.0));
+            (window, mouth)
+        }
+        Usage::Stir { depth_m, radius_m, turns } => {
+            // The object's −x end (a spoon's bowl) turned straight down into the target.
+            let tip_tool = held * Point3::new(-0.5 * bottle_length(&bottle.shape), 0.0, 0.0);
+            let tip_dir = grasp.rotation * (tip_tool.coords - held.translation.vector);
+            let turn = UnitQuaternion::rotation_between(&tip_dir, &-Vector3::z()).unwrap_or_else(UnitQuaternion::identity);
+            let stir = turn * down;
+            let centre = Point3::new(c.x, c.y, c.z + 0.5 * hc - depth_m);
+            let first = centre + Vector3::new(radius_m, 0.0, 0.0);
+            // 15 cm over the rim: leaving towards the place does not graze the cup's sphere again.
+            let pre_stir = tool_for(tip_tool, first + Vector3::new(0.0, 0.0, depth_m + 0.15), down);
+            path.move_to(pre_stir, ts(3.5)).move_to(tool_for(tip_tool, first, stir), ts(2.5));
+            let stir_start = path.duration();
+            for k in 1..=turns * 8 {
+                let a = f64::from(k) * std::f64::consts::FRAC_PI_4;
+                let p = centre + radius_m * Vector3::new(a.cos(), a.sin(), 0.0);
+                path.move_to(tool_for(tip_tool, p, stir), ts(0.5));
+            }
+            let window = (stir_start, path.duration());
+            path.move_to(pre_stir, ts(2.0));
+            (window, first)
+        }
+    };
+    // Place: the object upright, its bottom 1 cm over the table (it drops when released).
+    let place = Isometry3::from_parts(
+        Translation3::new(demo.place_xy[0], demo.place_xy[1], sim.scene().table_top_z() + 0.5 * hb),
+        bottle.pose.rotation,
+    );
+    let place_tool = Isometry3::translation(0.0, 0.0, 0.01) * place * held.inverse();
+    let pre_place = at(place_tool.translation.vector + Vector3::new(0.0, 0.0, 0.12), down);
+    let retreat = at(place_tool.translation.vector + Vector3::new(0.0, 0.0, 0.15), down);
     path.move_to(pre_place, ts(3.0)).move_to(place_tool, ts(2.0));
     say(&path, ts(0.5), "gripper open");
     path.hold(ts(1.0)).move_to(retreat, ts(2.0));
@@ -153,6 +260,15 @@ pub fn plan_pour(sim: &Simulator, time_scale: f64) -> Result<PourPlan> {
         place,
         bottle_height: hb,
     })
+}
+
+/// Length of a shape along its x axis, m.
+fn bottle_length(shape: &Shape) -> f64 {
+    match *shape {
+        Shape::Box { size } => size[0],
+        Shape::Cylinder { radius, .. } => 2.0 * radius,
+        Shape::Sphere { radius } => 2.0 * radius,
+    }
 }
 
 /// Natural length of the demonstration at `time_scale` 1, s.

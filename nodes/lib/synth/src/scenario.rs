@@ -8,7 +8,7 @@ use cowork_sim::{Scene, SimParams, Simulator};
 
 use crate::depth::DepthRig;
 use crate::runner::Runner;
-use crate::{Result, SynthError, gestures, pour, stacking, static_scene};
+use crate::{Result, SynthError, gestures, kitchen, pour, stacking, static_scene};
 
 /// The scenario bags the synthesiser writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -22,6 +22,12 @@ pub enum Scenario {
     StackingHuman,
     /// Labelled gestures come / stop / handover right by varied people (Sec. 5.1.3).
     Gestures,
+    /// Kinesthetic demonstration of add(coffee): the jar poured into the cup ([`kitchen`]).
+    KinestheticCoffee,
+    /// Kinesthetic demonstration of use(spoon): stirring in the cup ([`kitchen`]).
+    KinestheticSpoon,
+    /// Kinesthetic demonstration of add(tea): the tea box emptied into the cup ([`kitchen`]).
+    KinestheticTea,
 }
 
 impl Scenario {
@@ -31,6 +37,9 @@ impl Scenario {
         Scenario::StaticScene,
         Scenario::StackingHuman,
         Scenario::Gestures,
+        Scenario::KinestheticCoffee,
+        Scenario::KinestheticSpoon,
+        Scenario::KinestheticTea,
     ];
 
     /// The CLI name.
@@ -40,13 +49,19 @@ impl Scenario {
             Scenario::StaticScene => "static-scene",
             Scenario::StackingHuman => "stacking-human",
             Scenario::Gestures => "gestures",
+            Scenario::KinestheticCoffee => "kinesthetic-coffee",
+            Scenario::KinestheticSpoon => "kinesthetic-spoon",
+            Scenario::KinestheticTea => "kinesthetic-tea",
         }
     }
 
     /// Scene file under `config/scenes/`.
     pub fn scene_file(self) -> &'static str {
         match self {
-            Scenario::KinestheticPour => "kitchen.yaml",
+            Scenario::KinestheticPour
+            | Scenario::KinestheticCoffee
+            | Scenario::KinestheticSpoon
+            | Scenario::KinestheticTea => "kitchen.yaml",
             Scenario::StaticScene | Scenario::StackingHuman | Scenario::Gestures => "stacking.yaml",
         }
     }
@@ -59,6 +74,9 @@ impl Scenario {
             Scenario::StaticScene => static_scene::SEGMENT_S * static_scene::CONFIGURATIONS_DEG.len() as f64,
             Scenario::StackingHuman => stacking::default_duration_s(seed)?,
             Scenario::Gestures => gestures::default_duration_s(seed)?,
+            Scenario::KinestheticCoffee => kitchen::COFFEE_DURATION_S,
+            Scenario::KinestheticSpoon => kitchen::SPOON_DURATION_S,
+            Scenario::KinestheticTea => kitchen::TEA_DURATION_S,
         })
     }
 }
@@ -188,6 +206,34 @@ pub fn synthesize(
                 });
             }
             let plan = pour::plan_pour(&sim, scale)?;
+            let mut run = Runner::new(sim, path, duration, progress)?;
+            pour::run_pour(&mut run, &plan, options.seed, options.noise, |run| {
+                if let Some(rig) = depth.as_mut() {
+                    while let Some(t) = rig.due(run.now()) {
+                        rig.write_frame(&mut run.streams, t, &run.sim, &[])?;
+                    }
+                }
+                Ok(())
+            })?;
+            run.streams.finish()?
+        }
+        Scenario::KinestheticCoffee | Scenario::KinestheticSpoon | Scenario::KinestheticTea => {
+            let (demo, natural) = match scenario {
+                Scenario::KinestheticCoffee => (&kitchen::COFFEE, kitchen::COFFEE_DURATION_S),
+                Scenario::KinestheticSpoon => (&kitchen::SPOON, kitchen::SPOON_DURATION_S),
+                _ => (&kitchen::TEA, kitchen::TEA_DURATION_S),
+            };
+            let scale = duration / natural;
+            if !(0.6..=5.0).contains(&scale) {
+                return Err(SynthError::BadOption {
+                    option: "--duration",
+                    value: duration.to_string(),
+                    reason: format!(
+                        "{scenario} stretches its {natural} s demonstration by 0.6..5 (a faster one would exceed the joint speed limits)"
+                    ),
+                });
+            }
+            let plan = pour::plan_demonstration(&sim, demo, scale)?;
             let mut run = Runner::new(sim, path, duration, progress)?;
             pour::run_pour(&mut run, &plan, options.seed, options.noise, |run| {
                 if let Some(rig) = depth.as_mut() {

@@ -191,3 +191,53 @@ pub fn teach_pour(d: &mut Driver) {
     d.move_to(at(0.42, 0.20, 0.40), 1.0);
     d.say("done");
 }
+
+/// The simulator's state as `lwr_sim` reports it on `/lwr/world`.
+pub fn sim_report(sim: &cowork_sim::Simulator) -> WorldReport {
+    let tool = sim.tool_pose();
+    let point = nalgebra::Point3::from(tool.translation.vector);
+    WorldReport {
+        t: sim.time_ns() as f64 * 1e-9,
+        tool,
+        gripper_closed: matches!(sim.gripper(), cowork_sim::GripperState::Closed { .. }),
+        held: sim.held_object().map(str::to_owned),
+        objects: sim
+            .objects()
+            .iter()
+            .map(|o| ObjectReport { name: o.name.clone(), pose: o.pose, distance: o.distance_to(&point), tilt: 0.0, visible: true })
+            .collect(),
+    }
+}
+
+/// A kinesthetic-teaching bag replayed into the kitchen simulator (as `lwr_sim` would move
+/// under its wrenches), its speech and a 100 Hz world report fed to a fresh manager with the
+/// default configuration: the manager (with what it learned) and every output.
+pub fn learn_from_bag(bag: &std::path::Path, config_dir: &std::path::Path) -> (Manager, Vec<Output>) {
+    use cowork_manager::{Database, ManagerConfig};
+    let mut sim = cowork_synth::load_simulator(config_dir, "kitchen.yaml").expect("simulator");
+    let mut speech = Vec::new();
+    for m in cowork_bag::BagReader::open(bag).expect("bag").messages() {
+        let m = m.expect("message");
+        if &*m.topic == "/speech_command" {
+            let s: cowork_msgs::std_msgs::String = m.decode().expect("speech");
+            speech.push((m.log_time_ns as i64, s.data));
+        }
+    }
+    let mut manager = Manager::new(ManagerConfig::default(), Database::new("lwr"));
+    let mut out: Vec<Output> = Vec::new();
+    let stamp = |t: f64| Stamp { t, unix_s: 0 };
+    manager.handle(&Input::World(sim_report(&sim)), stamp(0.0), &mut out);
+    let mut next = 0;
+    cowork_synth::replay_teaching(bag, &mut sim, 1.0, |s| {
+        let t = s.time_ns() as f64 * 1e-9;
+        while next < speech.len() && speech[next].0 < s.time_ns() {
+            manager.handle(&Input::Speech(speech[next].1.clone()), stamp(t), &mut out);
+            next += 1;
+        }
+        if s.time_ns() % 10_000_000 == 0 {
+            manager.handle(&Input::World(sim_report(s)), stamp(t), &mut out);
+        }
+    })
+    .expect("replay");
+    (manager, out)
+}
