@@ -73,6 +73,10 @@ pub fn run(mut node: RosNode, mut observer: ObserverNode, options: &RunOptions) 
             any = true;
         }
         while let Some(m) = skeletons.take() {
+            // Taken now: a batch that takes long to handle must not look silent at the tick.
+            if node.clock_started() {
+                observer.set_clock(node.now().to_secs_f64());
+            }
             let out = observer.on_skeleton(&m);
             summary.skeletons += 1;
             for w in &out.warnings {
