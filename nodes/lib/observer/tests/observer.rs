@@ -272,7 +272,7 @@ fn intermittent_bad_frames_do_not_flicker_alpha() {
             let t = f64::from(k) / 120.0;
             o.on_joint_state(t, &[], &READY).expect("joints");
             let mut m = frame(&p, t);
-            if k >= 120 && k < 480 && k % 5 == 0 {
+            if (120..480).contains(&k) && k.is_multiple_of(5) {
                 let q = &mut m.poses[4].orientation;
                 (q.x, q.y, q.z, q.w) = (0.5 * q.x, 0.5 * q.y, 0.5 * q.z, 0.5 * q.w);
             }
