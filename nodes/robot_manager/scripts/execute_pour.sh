@@ -38,6 +38,11 @@ if [[ ${MODULATION:-on} == off ]]; then
   sed -i 's/^        end_effector: true$/        end_effector: false/; s/^        links: true$/        links: false/' "$out/ds_controller.yaml"
   grep -q "end_effector: false" "$out/ds_controller.yaml" || { echo "could not turn the modulation off" >&2; exit 1; }
 fi
+# SAFETY=off turns ds_controller's link-distance damper off (safety.enabled), for comparison.
+if [[ ${SAFETY:-on} == off ]]; then
+  sed -i 's/^        enabled: true$/        enabled: false/' "$out/ds_controller.yaml"
+  grep -q "^        enabled: false$" "$out/ds_controller.yaml" || { echo "could not turn the link damper off" >&2; exit 1; }
+fi
 pids=()
 cleanup() {
   for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
