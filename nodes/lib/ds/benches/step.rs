@@ -63,6 +63,16 @@ fn bench(c: &mut Criterion) {
             black_box(&out);
         })
     });
+    // The same step with the link-distance damper off: its cost, side by side.
+    let mut cfg = ControllerConfig::default();
+    cfg.safety.enabled = false;
+    let mut plain = DsController::new(ctl.model().clone(), cfg).expect("config");
+    c.bench_function("ds_step_obstacles_no_damper", |b| {
+        b.iter(|| {
+            plain.step(black_box(&input), &mut out).expect("valid input");
+            black_box(&out);
+        })
+    });
     let mut free = input;
     free.distances = Distances::clear(0.0);
     c.bench_function("ds_step_free", |b| {
