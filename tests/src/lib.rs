@@ -276,7 +276,7 @@ impl TeachingFeed {
                 return Err(format!("the teaching feed did not finish in {limit:?} (sim time {now:.2} s)"));
             }
             polls += 1;
-            if polls % 500 == 0 {
+            if polls.is_multiple_of(500) {
                 alive()?;
             }
             if !progressed {
