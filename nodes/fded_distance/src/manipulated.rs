@@ -48,6 +48,9 @@ pub struct Removal {
     pub pixels: usize,
 }
 
+/// One list: (scene name, pose in the base frame) of each object.
+type List = Vec<(String, Isometry3<f64>)>;
+
 /// The shapes of the scene objects and the recent lists from robot_manager.
 #[derive(Debug, Clone)]
 pub struct ManipulatedObjects {
@@ -56,7 +59,7 @@ pub struct ManipulatedObjects {
     max_age_s: f64,
     base_frame: String,
     /// (stamp s, [(scene name, pose base frame)]), stamps non-decreasing.
-    history: VecDeque<(f64, Vec<(String, Isometry3<f64>)>)>,
+    history: VecDeque<(f64, List)>,
 }
 
 impl ManipulatedObjects {
