@@ -9,7 +9,9 @@
 #  (d) the bag of (b) is shown by `cowork bag info` and replayed by `cowork bag play --rate 1`
 #      (once every topic has matched the recorder: `--wait-readers`)
 #      while `cowork bag record` records it; the recording, decoded by mcap_ros2, has the same
-#      messages per topic with equal contents and the original spacing in time;
+#      messages per topic with equal contents and the original spacing in time; a second
+#      recorder writes the same replay as a rosbag2 directory (`-o DIR`), which `rosbags` opens
+#      from its metadata.yaml with every count equal to what it and the `mcap` package read;
 #  (e) rosbag2 directories written by `rosbags` with its Humble and Jazzy type stores
 #      (CameraInfo, TFMessage, 32FC1 Image, JointState; nested types spelled in full, no
 #      default values), given as directories, decode in cowork_bag with every value equal, `cowork bag info` reports no
@@ -47,12 +49,16 @@ export ROS_DOMAIN_ID RUST_LOG=warn,rustdds=off,ros2_client=off
 "$target/release/cowork" bag info "$work/theirs.mcap"
 "$target/release/cowork" bag record -o "$work/replayed.mcap" --duration 12 --discovery-interval 0.2 > "$work/record.log" &
 rec=$!
+"$target/release/cowork" bag record -o "$work/replayed_dir" --duration 12 --discovery-interval 0.2 > "$work/record_dir.log" &
+rec_dir=$!
 sleep 1
 # Every topic matched before the first message: volatile topics lose what is sent earlier.
 "$target/release/cowork" bag play "$work/theirs.mcap" --rate 1 --delay 1 --wait-readers 6 --quiet
 wait $rec || { echo "FAIL: cowork bag record"; cat "$work/record.log"; exit 1; }
 sed 's/^/  /' "$work/record.log"
 "$VENV/bin/python" tests/crosscheck/check_bag_replay.py "$work/theirs.jsonl" "$work/replayed.mcap"
+wait $rec_dir || { echo "FAIL: cowork bag record -o DIR"; cat "$work/record_dir.log"; exit 1; }
+"$VENV/bin/python" tests/crosscheck/check_bag_rosbags.py read-dir "$work/replayed_dir"
 echo "(e) rosbag2 directories written by rosbags (Humble and Jazzy type stores)"
 for store in ros2_humble ros2_jazzy; do
   "$VENV/bin/python" tests/crosscheck/check_bag_rosbags.py write "$work/$store" "$store" "$work/$store.jsonl"

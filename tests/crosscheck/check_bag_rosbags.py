@@ -4,6 +4,11 @@
                                  TFMessage, a 32FC1 depth Image and JointState, typed from the
                                  rosbags type store STORE (ros2_humble, ros2_jazzy); the values
                                  written go to EXPECT.jsonl for `check_bag.py compare`
+  read-dir DIR                   a rosbag2 directory written by `cowork bag record -o DIR`:
+                                 rosbags opens it from its metadata.yaml; per topic, the count
+                                 metadata.yaml gives equals the messages rosbags reads and the
+                                 messages the `mcap` package reads from the storage file; every
+                                 message of a type rosbags' ros2_humble store knows deserialises
   write-bad FILE.mcap            one CameraInfo whose RegionOfInterest lacks `do_rectify` (a
                                  layout that is not ours): cowork must refuse it, naming the field
 
@@ -122,10 +127,42 @@ def write_bad(path):
     print(f"rosbags wrote a CameraInfo with a different RegionOfInterest layout to {out}")
 
 
+def read_dir(directory):
+    from collections import Counter
+
+    from mcap.reader import make_reader
+    from rosbags.rosbag2 import Reader
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    read, decoded = Counter(), 0
+    with Reader(directory) as reader:
+        listed = {c.topic: c.msgcount for c in reader.connections}
+        types = {c.topic: c.msgtype for c in reader.connections}
+        for conn, _t, raw in reader.messages():
+            read[conn.topic] += 1
+            if conn.msgtype in ts.types:
+                ts.deserialize_cdr(raw, conn.msgtype)
+                decoded += 1
+    storage = sorted(Path(directory).glob("*.mcap"))
+    assert len(storage) == 1, storage
+    with open(storage[0], "rb") as f:
+        direct = Counter(ch.topic for _s, ch, _m in make_reader(f).iter_messages())
+    assert listed, "metadata.yaml lists no topic"
+    for topic, n in sorted(listed.items()):
+        assert read[topic] == n, f"{topic}: metadata.yaml says {n}, rosbags read {read[topic]}"
+        assert direct[topic] == n, f"{topic}: metadata.yaml says {n}, the mcap package read {direct[topic]}"
+    assert set(direct) == set(listed), f"topics in the file but not in metadata.yaml: {set(direct) - set(listed)}"
+    print(f"  rosbags read the cowork rosbag2 directory: {sum(read.values())} messages on {len(listed)} topics "
+          f"({', '.join(f'{t} {types[t]} {n}' for t, n in sorted(listed.items()))}), "
+          f"{decoded} deserialised by rosbags' ros2_humble store; counts equal metadata.yaml and the mcap package")
+
+
 def main():
     mode = sys.argv[1]
     if mode == "write":
         write(sys.argv[2], sys.argv[3], sys.argv[4])
+    elif mode == "read-dir":
+        read_dir(sys.argv[2])
     elif mode == "write-bad":
         write_bad(sys.argv[2])
     else:

@@ -1,7 +1,7 @@
 //! Round trip over DDS: lwr_sim (in-process, its real `run` loop) plus a depth-image and an
 //! unknown-type publisher on one domain → `cowork bag record` → `cowork bag play --rate 1` on a
-//! second domain while `cowork bag record` records again → the same messages (payload bytes
-//! equal) with the same relative timing.
+//! second domain while `cowork bag record` records again, into a rosbag2 directory → the same
+//! messages (payload bytes equal) with the same relative timing, counted in its metadata.yaml.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -89,7 +89,8 @@ fn record_play_record_gives_the_same_messages_and_timing() -> TestResult {
     let root = repo_root();
     let dir = tempfile::tempdir()?;
     let first = dir.path().join("first.mcap");
-    let second = dir.path().join("second.mcap");
+    // The second recording is a rosbag2 directory (`-o NAME` without .mcap).
+    let second = dir.path().join("second");
     let (a, b) = (domain(0), domain(1));
 
     // The graph on domain a: lwr_sim at 1x (joint states at 1 kHz would make a large bag in a
@@ -133,6 +134,18 @@ fn record_play_record_gives_the_same_messages_and_timing() -> TestResult {
     wait(play, "play")?;
     wait(rec, "second record")?;
     let replayed = read(&second)?;
+    // metadata.yaml names the storage file and counts what is in it, per topic.
+    let meta: serde_yaml_ng::Value = serde_yaml_ng::from_str(&std::fs::read_to_string(second.join("metadata.yaml"))?)?;
+    let info = &meta["rosbag2_bagfile_information"];
+    assert_eq!(info["relative_file_paths"][0].as_str(), Some("second_0.mcap"));
+    let listed = info["topics_with_message_count"].as_sequence().cloned().unwrap_or_default();
+    assert_eq!(listed.len(), replayed.len(), "topics in metadata.yaml vs in the bag");
+    for t in &listed {
+        let name = t["topic_metadata"]["name"].as_str().unwrap_or_default();
+        let n = replayed.get(name).map_or(0, Vec::len) as u64;
+        assert_eq!(t["message_count"].as_u64(), Some(n), "{name}: metadata.yaml count");
+        assert_eq!(t["topic_metadata"]["type"].as_str(), replayed.get(name).map(|m| m[0].2.as_str()), "{name}: type");
+    }
 
     // Reliable topics: every message again, bytes equal. /clock is best effort (may drop).
     let mut offsets = Vec::new();

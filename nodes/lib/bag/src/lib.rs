@@ -46,6 +46,7 @@ mod error;
 mod image;
 pub mod play;
 mod read;
+mod rosbag2;
 pub mod schema;
 mod write;
 
@@ -53,5 +54,6 @@ pub use check::{GRAPH_TOPICS, TopicCheck, Verdict, check_bag, check_message, gra
 pub use error::{BagError, Result};
 pub use image::{bytes_per_pixel, check_image};
 pub use read::{BagInfo, BagReader, ChannelInfo, Messages, RawMessage, TopicInfo, storage_file};
+pub use rosbag2::{Rosbag2Metadata, Rosbag2Topic, rosbag2_storage_path};
 pub use play::{PlayItem, PlayOptions, Player, Rate, Schedule};
 pub use write::{BagWriter, ChannelId, WriteSummary};

@@ -1,4 +1,7 @@
-//! `cowork bag record`: live topics over DDS → MCAP bag, payloads untouched.
+//! `cowork bag record`: live topics over DDS → MCAP bag, payloads untouched. `-o run.mcap`
+//! writes one MCAP file; `-o run` (no `.mcap`) writes a rosbag2 directory `run/` with
+//! `run_0.mcap` and, when the recording ends, `metadata.yaml`, as `ros2 bag record -s mcap -o
+//! run` does (a directory left without metadata by a crash still opens: its one `.mcap` is read).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::PathBuf;
@@ -17,7 +20,9 @@ const INFRASTRUCTURE: &[&str] = &["/rosout", "/parameter_events"];
 /// Arguments of `cowork bag record`.
 #[derive(Debug, Args)]
 pub struct RecordArgs {
-    /// The MCAP file to write (replaced if it exists).
+    /// The MCAP file to write (`NAME.mcap`, replaced if it exists), or a rosbag2 directory to
+    /// create (`NAME` without `.mcap`: `NAME/NAME_0.mcap` + `metadata.yaml`; refused if it
+    /// exists, as `ros2 bag record` does).
     #[arg(short, long)]
     pub output: PathBuf,
     /// Topics to record; all discovered topics (except /rosout, /parameter_events) if none.
@@ -57,23 +62,52 @@ struct Taken {
     data: Vec<u8>,
 }
 
+/// What the writer thread reports when it ends.
+struct Written {
+    /// The finish result.
+    summary: cowork_bag::Result<WriteSummary>,
+    /// The write error that stopped it, if any.
+    error: Option<cowork_bag::BagError>,
+    /// Messages written per topic.
+    per_topic: BTreeMap<Arc<str>, (Arc<str>, u64)>,
+    /// Log times of the first and last message written (ns since the Unix epoch).
+    span_ns: Option<(u64, u64)>,
+}
+
 /// The writer thread: writes every queued sample until the recorder hangs up or a write fails,
-/// then finishes the bag either way (what was written stays readable). Returns the finish
-/// result and the write error, if any.
-fn write_all(
-    mut writer: BagWriter,
-    queue: std::sync::mpsc::Receiver<Taken>,
-) -> (cowork_bag::Result<WriteSummary>, Option<cowork_bag::BagError>) {
-    let mut write_error = None;
+/// then finishes the bag either way (what was written stays readable).
+fn write_all(mut writer: BagWriter, queue: std::sync::mpsc::Receiver<Taken>) -> Written {
+    let mut error = None;
+    let mut per_topic: BTreeMap<Arc<str>, (Arc<str>, u64)> = BTreeMap::new();
+    let mut span_ns: Option<(u64, u64)> = None;
     for t in queue {
         if let Err(e) =
             writer.write_raw(&t.topic, &t.type_name, &t.definition, t.receive_time_ns, t.publish_time_ns, &t.data)
         {
-            write_error = Some(e);
+            error = Some(e);
             break;
         }
+        per_topic.entry(Arc::clone(&t.topic)).or_insert_with(|| (Arc::clone(&t.type_name), 0)).1 += 1;
+        let (first, last) = span_ns.get_or_insert((t.receive_time_ns, t.receive_time_ns));
+        *first = (*first).min(t.receive_time_ns);
+        *last = (*last).max(t.receive_time_ns);
     }
-    (writer.finish(), write_error)
+    Written { summary: writer.finish(), error, per_topic, span_ns }
+}
+
+/// Where the bag goes: the MCAP file to write and, for a rosbag2 directory, the directory.
+fn output_paths(output: &std::path::Path) -> Result<(PathBuf, Option<PathBuf>)> {
+    if output.extension().is_some_and(|e| e == "mcap") {
+        return Ok((output.to_path_buf(), None));
+    }
+    if output.exists() {
+        bail!(
+            "{}: exists; a rosbag2 directory is created new (give another name, or NAME.mcap for a single file)",
+            output.display()
+        );
+    }
+    std::fs::create_dir_all(output).with_context(|| format!("creating bag directory {}", output.display()))?;
+    Ok((cowork_bag::rosbag2_storage_path(output), Some(output.to_path_buf())))
 }
 
 /// QoS for a topic nobody has offered yet (named on the command line before discovery).
@@ -98,8 +132,8 @@ pub fn run(args: &RecordArgs) -> Result<()> {
     let depth = args.depth.max(1);
     shutdown::install();
     let mut node = RosNode::new("cowork_bag_recorder", &NodeConfig::default())?;
-    let writer = BagWriter::create(&args.output)
-        .with_context(|| format!("creating bag {}", args.output.display()))?;
+    let (file, rosbag2_dir) = output_paths(&args.output)?;
+    let writer = BagWriter::create(&file).with_context(|| format!("creating bag {}", file.display()))?;
     // Compressing and writing chunks happens on its own thread so taking samples never waits
     // on it: a burst (`cowork bag play --max`) queues here instead of overflowing the DDS
     // reader caches. The queue is unbounded on purpose: memory is the price of losing nothing.
@@ -162,10 +196,29 @@ pub fn run(args: &RecordArgs) -> Result<()> {
     }
     drop(to_writer);
     let elapsed = start.elapsed().as_secs_f64();
-    let (summary, write_error) = writer_thread
+    let written = writer_thread
         .join()
         .map_err(|_| anyhow::anyhow!("the bag writer thread panicked"))?;
-    let summary = summary.with_context(|| format!("finishing bag {}", args.output.display()))?;
+    let write_error = written.error;
+    let summary = written.summary.with_context(|| format!("finishing bag {}", file.display()))?;
+    if let Some(dir) = &rosbag2_dir {
+        let (start_ns, end_ns) = written.span_ns.unwrap_or((0, 0));
+        let metadata = cowork_bag::Rosbag2Metadata {
+            storage_file: file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            start_ns,
+            end_ns,
+            topics: written
+                .per_topic
+                .iter()
+                .map(|(topic, (type_name, n))| cowork_bag::Rosbag2Topic {
+                    name: topic.to_string(),
+                    type_name: type_name.to_string(),
+                    message_count: *n,
+                })
+                .collect(),
+        };
+        metadata.write(dir).with_context(|| format!("writing {}/metadata.yaml", dir.display()))?;
+    }
     println!("{:<40}  {:<36}  {:>9}  {:>12}", "topic", "type", "messages", "MB");
     for (topic, r) in &recorded {
         println!(
