@@ -113,9 +113,10 @@ pub fn build(model: &RobotModel, name: &str, options: &Options) -> Result<Setup>
     controller.ik.posture_gain = options.number("posture-gain", 0.0, NON_NEGATIVE)?;
     controller.modulation.links = options.number("link-avoidance", 1.0, (|x| x == 0.0 || x == 1.0, "must be 0 or 1"))? == 1.0;
     if options.number("avoidance", 1.0, (|x| x == 0.0 || x == 1.0, "must be 0 or 1"))? == 0.0 {
-        // Counterfactual runs: the plain DS, no modulation at all.
+        // Counterfactual runs: the plain DS, no modulation and no link safety layer at all.
         controller.modulation.end_effector = false;
         controller.modulation.links = false;
+        controller.safety.enabled = false;
     }
     let rate = options.number("distance-rate", 1000.0, (|x| x > 0.0 && x <= 1000.0, "must be in (0, 1000] Hz"))?;
     let setup = match name {
