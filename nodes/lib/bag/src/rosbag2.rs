@@ -96,7 +96,7 @@ impl Rosbag2Metadata {
     /// The `metadata.yaml` text (rosbag2 format version 5, as ROS 2 Humble writes it; later
     /// distributions and `rosbags` read it too). Messages are CDR, the bag uncompressed at the
     /// rosbag2 level (our chunks are zstd inside MCAP, which is the storage plugin's business).
-    pub fn to_yaml(&self) -> String {
+    pub fn to_yaml(&self) -> std::result::Result<String, serde_yaml_ng::Error> {
         let total: u64 = self.topics.iter().map(|t| t.message_count).sum();
         let duration = Nanos { nanoseconds: self.end_ns.saturating_sub(self.start_ns) };
         let doc = Doc {
@@ -130,17 +130,16 @@ impl Rosbag2Metadata {
                 }],
             },
         };
-        // Plain structs of strings and integers always serialise.
-        serde_yaml_ng::to_string(&doc).unwrap_or_default()
+        serde_yaml_ng::to_string(&doc)
     }
 
-    /// Writes `dir/metadata.yaml` (temporary file + rename, so a reader never sees half of it).
+    /// Writes `dir/metadata.yaml` with [`cowork_store::write_atomic`] (temporary file, fsync,
+    /// rename, directory fsync): a crash leaves no metadata or all of it, never half.
     pub fn write(&self, dir: &Path) -> Result<()> {
         let path = dir.join("metadata.yaml");
-        let tmp = dir.join(".metadata.yaml.tmp");
         let io = |source| BagError::Io { path: path.clone(), source };
-        std::fs::write(&tmp, self.to_yaml()).map_err(io)?;
-        std::fs::rename(&tmp, &path).map_err(io)
+        let text = self.to_yaml().map_err(|e| io(std::io::Error::other(e)))?;
+        cowork_store::write_atomic(&path, text.as_bytes()).map_err(io)
     }
 }
 
