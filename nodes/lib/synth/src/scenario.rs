@@ -192,33 +192,12 @@ pub fn synthesize(
     let depth_seed = options.seed ^ 0x6465_7074_685f_6e6f;
     let mut depth = if options.depth { Some(DepthRig::new(&sim, depth_seed, options.noise)?) } else { None };
     let counts = match scenario {
-        Scenario::KinestheticPour => {
-            let scale = duration / pour::NATURAL_DURATION_S;
-            if !(0.6..=5.0).contains(&scale) {
-                return Err(SynthError::BadOption {
-                    option: "--duration",
-                    value: duration.to_string(),
-                    reason: format!(
-                        "kinesthetic-pour stretches its {} s demonstration by 0.6..5 (a faster \
-                         one would exceed the joint speed limits)",
-                        pour::NATURAL_DURATION_S
-                    ),
-                });
-            }
-            let plan = pour::plan_pour(&sim, scale)?;
-            let mut run = Runner::new(sim, path, duration, progress)?;
-            pour::run_pour(&mut run, &plan, options.seed, options.noise, |run| {
-                if let Some(rig) = depth.as_mut() {
-                    while let Some(t) = rig.due(run.now()) {
-                        rig.write_frame(&mut run.streams, t, &run.sim, &[])?;
-                    }
-                }
-                Ok(())
-            })?;
-            run.streams.finish()?
-        }
-        Scenario::KinestheticCoffee | Scenario::KinestheticSpoon | Scenario::KinestheticTea => {
+        Scenario::KinestheticPour
+        | Scenario::KinestheticCoffee
+        | Scenario::KinestheticSpoon
+        | Scenario::KinestheticTea => {
             let (demo, natural) = match scenario {
+                Scenario::KinestheticPour => (&pour::POUR, pour::NATURAL_DURATION_S),
                 Scenario::KinestheticCoffee => (&kitchen::COFFEE, kitchen::COFFEE_DURATION_S),
                 Scenario::KinestheticSpoon => (&kitchen::SPOON, kitchen::SPOON_DURATION_S),
                 _ => (&kitchen::TEA, kitchen::TEA_DURATION_S),
