@@ -1,6 +1,11 @@
 """ROS 2 launch file for users with a ROS 2 installation.
 
     ros2 launch launch_scripts/cowork.launch.py [rate:=1.0] [scene:=config/scenes/kitchen.yaml]
+        [execute:=TASK [learned:=config/learned]] [task:=pourDrink]
+
+execute:=TASK carries out TASK (pourDrink, prepareCoffee, ...) with the LTM and a copy of the
+primitive database learned in `learned` (written by launch_scripts/teach.sh), as
+`launch_scripts/graph.sh --execute TASK`; without it the supervisor waits to be taught `task`.
 
 Run from the repository root after `cargo build --release --bins`. The nodes are plain
 executables (not colcon packages), so they are started with ExecuteProcess. By default cowork
@@ -8,9 +13,10 @@ keeps DDS on loopback; export ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET to reach othe
 """
 
 import os
+import shutil
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, ExecuteProcess
+from launch.actions import DeclareLaunchArgument, ExecuteProcess, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -27,6 +33,30 @@ def node(name, *args):
     )
 
 
+def manager_and_supervisor(context):
+    """robot_manager + attentional_supervisor, teaching or executing (resolved at launch time)."""
+    execute = LaunchConfiguration("execute").perform(context)
+    learned = os.path.join(ROOT, LaunchConfiguration("learned").perform(context))
+    if execute:
+        ltm = os.path.join(learned, "kitchen.learned.schema")
+        if not os.path.isfile(ltm):
+            raise RuntimeError(f"nothing learned in {learned}: run launch_scripts/teach.sh")
+        work = os.path.join(ROOT, "out", "execute")
+        shutil.rmtree(work, ignore_errors=True)
+        database = os.path.join(work, "primitives")
+        shutil.copytree(os.path.join(learned, "primitives"), database)
+        task, save = execute, os.path.join(work, "kitchen.learned.schema")
+    else:
+        save = os.path.join(ROOT, "out", "kitchen.learned.schema")
+        ltm = save if os.path.isfile(save) else os.path.join(ROOT, "config", "tasks", "kitchen.schema")
+        database = os.path.join(ROOT, "out", "primitives")
+        task = LaunchConfiguration("task").perform(context)
+    return [
+        node("robot_manager", "--params", "config/robot_manager.yaml", "--use-sim-time", "--database-dir", database),
+        node("attentional_supervisor", "--ltm", ltm, "--task", task, "--use-sim-time", "--save-ltm", save),
+    ]
+
+
 def generate_launch_description():
     rate = LaunchConfiguration("rate")
     scene = LaunchConfiguration("scene")
@@ -36,18 +66,13 @@ def generate_launch_description():
             DeclareLaunchArgument(
                 "scene", default_value="config/scenes/kitchen.yaml", description="scene file"
             ),
+            DeclareLaunchArgument("execute", default_value="", description="task to carry out"),
+            DeclareLaunchArgument("learned", default_value="config/learned", description="learned LTM + primitives"),
+            DeclareLaunchArgument("task", default_value="pourDrink", description="task to teach"),
             node("lwr_sim", "--rate", rate, "--scene", scene),
             node("fded_distance", "--params", "config/fded_distance.yaml", "--use-sim-time"),
             node("human_observer", "--params", "config/human_observer.yaml", "--use-sim-time"),
             node("ds_controller", "--params", "config/ds_controller.yaml", "--use-sim-time"),
-            node(
-                "robot_manager",
-                "--params",
-                "config/robot_manager.yaml",
-                "--use-sim-time",
-                "--database-dir",
-                "out/primitives",
-            ),
-            node("attentional_supervisor", "--ltm", "config/tasks/kitchen.schema", "--task", "pourDrink"),
+            OpaqueFunction(function=manager_and_supervisor),
         ]
     )

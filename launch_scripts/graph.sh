@@ -2,12 +2,17 @@
 # Start the cowork graph: every node a separate process, talking DDS on loopback.
 #
 #   launch_scripts/graph.sh [--rate R | --max] [--duration S] [--logs DIR] [--scene FILE]
-#                           [--execute TASK]
+#                           [--execute TASK [--learned DIR]] [--teach TASK]
 #
-# The supervisor allocates TASK (default pourDrink) from the learned LTM out/kitchen.learned.schema
-# when teaching has written one, else from config/tasks/kitchen.schema; what it learns is saved
-# there again. Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every
-# node cleanly. Nodes run from target/release; build first with `cargo build --release --bins`.
+# --execute TASK: the robot carries out TASK (pourDrink, prepareCoffee, ...) with what was learned
+#   in DIR (default config/learned, written by launch_scripts/teach.sh): the LTM
+#   DIR/kitchen.learned.schema and a copy of the primitive database DIR/primitives (DIR itself
+#   is never written). Steer it with `cowork say stop|repeat|human add(water)`.
+# Otherwise (teaching, --teach TASK, default pourDrink): the supervisor allocates TASK from
+#   out/kitchen.learned.schema when teaching has written one, else from
+#   config/tasks/kitchen.schema; what it learns is saved to out/ again.
+# Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every node cleanly.
+# Nodes run from target/release; build first with `cargo build --release --bins`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -16,6 +21,8 @@ duration_args=()
 logs=out/logs
 scene=config/scenes/kitchen.yaml
 task=pourDrink
+execute=
+learned_dir=config/learned
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rate) rate_args=(--rate "$2"); shift 2 ;;
@@ -23,8 +30,10 @@ while [[ $# -gt 0 ]]; do
     --duration) duration_args=(--duration "$2"); shift 2 ;;
     --logs) logs="$2"; shift 2 ;;
     --scene) scene="$2"; shift 2 ;;
-    --execute) task="$2"; shift 2 ;;
-    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
+    --execute) task="$2"; execute=1; shift 2 ;;
+    --teach) task="$2"; execute=; shift 2 ;;
+    --learned) learned_dir="$2"; shift 2 ;;
+    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
     *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -34,6 +43,21 @@ for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controll
   [[ -x $bin/$b ]] || { echo "graph.sh: $bin/$b missing; run: cargo build --release --bins" >&2; exit 1; }
 done
 mkdir -p "$logs"
+if [[ -n $execute ]]; then
+  # What the robot runs: the learned LTM, and a fresh copy of the primitive database.
+  ltm=$learned_dir/kitchen.learned.schema
+  [[ -f $ltm && -f $learned_dir/primitives/lwr.primitives.json ]] || {
+    echo "graph.sh: nothing learned in $learned_dir (run launch_scripts/teach.sh, or give --learned DIR)" >&2; exit 1; }
+  database=out/execute/primitives
+  save_ltm=out/execute/kitchen.learned.schema
+  rm -rf out/execute && mkdir -p out/execute && cp -r "$learned_dir/primitives" "$database"
+else
+  # A restart keeps what was taught: the learned LTM when there is one.
+  database=out/primitives
+  save_ltm=out/kitchen.learned.schema
+  ltm=config/tasks/kitchen.schema
+  [[ -f $save_ltm ]] && ltm=$save_ltm
+fi
 
 pids=()
 names=()
@@ -67,15 +91,11 @@ start fded_distance $bin/fded_distance --params config/fded_distance.yaml --use-
 start human_observer $bin/human_observer --params config/human_observer.yaml --use-sim-time
 # Reactive DS controller: /motion/command -> /lwr/joint_velocity_command (holds without fresh inputs).
 start ds_controller $bin/ds_controller --params config/ds_controller.yaml --use-sim-time
-# Robot manager: teaching (segments, primitive database in out/primitives), execution of the
-# supervisor actions through ds_controller and the gripper, /robot_stream and /object_stream.
-start robot_manager $bin/robot_manager --params config/robot_manager.yaml --use-sim-time --database-dir out/primitives
-# A restart keeps what was taught: the learned LTM when there is one.
-learned=out/kitchen.learned.schema
-ltm=config/tasks/kitchen.schema
-[[ -f $learned ]] && ltm=$learned
-echo "supervisor: task $task from $ltm"
-start attentional_supervisor $bin/attentional_supervisor --ltm "$ltm" --task "$task" --use-sim-time --save-ltm "$learned"
+# Robot manager: teaching (segments, primitive database), execution of the supervisor actions
+# through ds_controller and the gripper, /robot_stream and /object_stream.
+start robot_manager $bin/robot_manager --params config/robot_manager.yaml --use-sim-time --database-dir "$database"
+echo "supervisor: task $task from $ltm${execute:+ (executing)}"
+start attentional_supervisor $bin/attentional_supervisor --ltm "$ltm" --task "$task" --use-sim-time --save-ltm "$save_ltm"
 
 # Wait until any node exits (e.g. --duration reached) or a signal arrives.
 wait -n "${pids[@]}" || true

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Debian packages the tests need: Mesa's software Vulkan driver (lavapipe) and the Vulkan loader,
-# so the wgpu path of fDED has an adapter to run on. Idempotent; needs root (or sudo) to install.
+# so the wgpu path of fDED has an adapter to run on, and Chromium, which the cross-check group's
+# report check (tests/crosscheck/check_report.sh) runs headless to screenshot `cowork report`'s
+# index.html. Idempotent; needs root (or sudo) to install.
 set -euo pipefail
-packages=(mesa-vulkan-drivers libvulkan1)
+packages=(mesa-vulkan-drivers libvulkan1 chromium)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -200,6 +200,9 @@ pub struct MotionCommand {
     pub nominal_speed: f64,
     /// Keep the current end-effector orientation.
     pub hold_orientation: bool,
+    /// Turn the end effector's obstacle avoidance off for this motion (handover, Sec. 5.1.3);
+    /// `false` (the default) keeps it on. Null-space (link) avoidance stays on either way.
+    pub end_effector_avoidance_off: bool,
 }
 
 ros_message!(

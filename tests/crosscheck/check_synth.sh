@@ -3,7 +3,9 @@
 # short durations) and every message of every bag - these and the sample bags in bags/ - is
 # decoded by mcap_ros2.reader.read_ros2_messages; counts per topic are checked against the MCAP
 # summary and the stream rates, and field values (image size / encoding, camera intrinsics,
-# 11 Xsens segments, joint names, wrench frame, speech words, gesture labels) are checked.
+# 11 Xsens segments, joint names, wrench frame, speech words, gesture labels) are checked; the
+# kinesthetic demonstrations (pour, coffee, spoon, tea) also by kinpy's forward kinematics of
+# their joint states (grasp above the right object, over the cup, tilted or not).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
@@ -14,10 +16,14 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
 echo "(a) freshly synthesised bags"
-for spec in "kinesthetic-pour 20" "static-scene 6" "stacking-human 8" "gestures 24"; do
-  read -r scenario duration <<< "$spec"
+# The kitchen demonstrations other than the pour at their own length (the scripted teacher's
+# whole path), without depth frames (as the bundled pour bag).
+for spec in "kinesthetic-pour 20" "static-scene 6" "stacking-human 8" "gestures 24" \
+    "kinesthetic-coffee 28.5 --no-depth" "kinesthetic-spoon 34.5 --no-depth" "kinesthetic-tea 36.5 --no-depth"; do
+  read -r scenario duration flags <<< "$spec"
   start=$(date +%s%N)
-  "$target/release/cowork" bag synth "$scenario" -o "$work/$scenario.mcap" --seed 3 --duration "$duration" > "$work/synth.log"
+  # shellcheck disable=SC2086 # flags are words
+  "$target/release/cowork" bag synth "$scenario" -o "$work/$scenario.mcap" --seed 3 --duration "$duration" ${flags:-} > "$work/synth.log"
   ms=$(( ($(date +%s%N) - start) / 1000000 ))
   printf '  %s: %s s of bag, %s bytes, synthesised in %d ms\n' "$scenario" "$duration" \
     "$(stat -c %s "$work/$scenario.mcap")" "$ms"

@@ -5,7 +5,9 @@ use clap::{Parser, Subcommand};
 
 mod cmd;
 
-/// Counts allocations per thread so `cowork bench control` can show the 1 kHz step allocates nothing.
+/// Counts allocations per thread so `cowork bench control` can show the 1 kHz step allocates
+/// nothing; only with the `alloc-count` feature, the shipped binary uses the system allocator.
+#[cfg(feature = "alloc-count")]
 #[global_allocator]
 static ALLOCATOR: cowork_testkit::CountingAllocator = cowork_testkit::CountingAllocator;
 
@@ -27,6 +29,9 @@ enum Command {
     /// Inspect live topics over DDS (no ROS installation needed).
     #[command(subcommand)]
     Topic(cmd::topic::TopicCommand),
+    /// ROS 2 nodes on the domain (`cowork node list`).
+    #[command(subcommand)]
+    Node(NodeCommand),
     /// Robot manager's primitive database: list, show, rm; learn from a kinesthetic bag.
     #[command(subcommand)]
     Primitives(cmd::primitives::PrimitivesCommand),
@@ -46,6 +51,8 @@ enum Command {
     Scenario(cmd::scenario::ScenarioArgs),
     /// The human observer offline on a bag: recognised gestures and every /human/state as CSV.
     Observe(cmd::observe::ObserveArgs),
+    /// Kinesthetic teaching in the graph: replay demonstration bags, keep the learned LTM and primitives.
+    Teach(cmd::teach::TeachArgs),
     /// Thesis experiments in the whole graph (node processes over DDS, sim clock); JSON, bags.
     Experiment(cmd::experiment::ExperimentArgs),
     /// Report (index.html + PNG plots) of recorded experiment runs.
@@ -53,6 +60,16 @@ enum Command {
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
+}
+
+#[derive(Debug, Subcommand)]
+enum NodeCommand {
+    /// The nodes seen on the domain, one per line (as `ros2 node list`).
+    List {
+        /// How long to listen for discovery, s.
+        #[arg(long, default_value_t = 2.0)]
+        wait: f64,
+    },
 }
 
 #[derive(Debug, Subcommand)]
@@ -74,6 +91,7 @@ fn main() -> Result<()> {
         Command::Robot(c) => cmd::robot::run(c),
         Command::Say(a) => cmd::say::run(a),
         Command::Topic(c) => cmd::topic::run(c),
+        Command::Node(NodeCommand::List { wait }) => cmd::topic::node_list(wait),
         Command::Supervisor(c) => cmd::supervisor::run(c),
         Command::Primitives(c) => cmd::primitives::run(c),
         Command::Learn(c) => cmd::learn::run(c),
@@ -81,6 +99,7 @@ fn main() -> Result<()> {
         Command::Fded(c) => cmd::fded::run(c),
         Command::Scenario(a) => cmd::scenario::run(a),
         Command::Experiment(a) => cmd::experiment::run(a),
+        Command::Teach(a) => cmd::teach::run(a),
         Command::Report(a) => cmd::report::run(a),
         Command::Bench(BenchCommand::Lasa(a)) => cmd::bench_lasa::run(a),
         Command::Bench(BenchCommand::Fded(a)) => cmd::fded::bench(a),

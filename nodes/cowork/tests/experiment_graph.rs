@@ -208,3 +208,65 @@ fn unknown_experiment_and_bad_scene_fail_before_anything_starts() {
     );
     assert!(!ok && out.contains("block1"), "{out}");
 }
+
+#[test]
+fn one_short_gestures_trial_starts_on_a_recognised_come() {
+    let bins = bin_dir();
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("run.json");
+    let logs = dir.path().join("logs");
+    // Seed 1: the person walks in from 0.6 s and beckons (`come`) at about 8-11 s; the
+    // observer must recognise it from the skeleton and the runner then starts the task.
+    let (ok, out) = cowork(
+        &[
+            "experiment",
+            "gestures-hri",
+            "--seed",
+            "1",
+            "--time-limit",
+            "12",
+            "--rate",
+            "0.5",
+            "--json",
+            json.to_str().unwrap(),
+            "--logs",
+            logs.to_str().unwrap(),
+            "--bin-dir",
+            bins.to_str().unwrap(),
+        ],
+        Duration::from_secs(150),
+    );
+    assert!(ok, "{out}");
+    let run: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let t = &run["trials"][0];
+    assert_eq!(run["experiment"], "gestures-hri");
+    assert_eq!(t["success"], false, "12 s cannot finish the task: {t}");
+    assert!(t["reason"].as_str().unwrap().contains("time limit"), "{t}");
+    // The come was recognised from the skeleton (not injected) ...
+    let gestures: Vec<&str> = t["gestures"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g.as_str().unwrap())
+        .collect();
+    assert!(gestures.contains(&"come"), "{t}");
+    // ... matched to the performed one, and it started the task: the wait step finished and
+    // ds_controller took a motion command.
+    let reactions = t["gesture_reactions"].as_array().unwrap();
+    assert!(
+        reactions
+            .iter()
+            .any(|r| r["label"] == "come" && r["performed_end_s"].is_number()
+                && r["recognised_s"].is_number()),
+        "{t}"
+    );
+    assert!(t["steps_done"].as_u64().unwrap() >= 1, "{t}");
+    let status = t["last_status"].as_str().unwrap();
+    assert!(
+        status.starts_with("command ") && !status.starts_with("command 0 "),
+        "{t}"
+    );
+    assert_eq!(t["collisions"], 0);
+    nothing_left(&logs);
+}

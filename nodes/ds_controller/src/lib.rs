@@ -15,6 +15,7 @@
 //! zero normal, unknown link) hold the robot with the reason until valid ones arrive.
 
 pub mod learned;
+pub mod scene;
 
 use std::sync::atomic::{AtomicBool, AtomicI64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, TryRecvError, TrySendError};
@@ -32,6 +33,7 @@ use cowork_ds::{
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{
     HumanState as HumanStateMsg, LinkDistances, MotionCommand as MotionCommandMsg, MotionStatus,
+    WorldState,
 };
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::{Float64MultiArray, Header};
@@ -41,6 +43,7 @@ use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::learned::Learned;
+use crate::scene::{SceneObjects, SceneObjectsParams};
 
 /// The `ds_controller: ros__parameters:` block.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -59,6 +62,8 @@ pub struct Params {
     pub max_model_file_bytes: u64,
     /// The controller (period, watchdog bound, speeds, modulation, IK).
     pub controller: ControllerConfig,
+    /// Which obstacle points are known scene objects (the link damper's shorter distances).
+    pub scene_objects: SceneObjectsParams,
 }
 
 impl Default for Params {
@@ -70,6 +75,7 @@ impl Default for Params {
             primitive_dir: "out/primitives".into(),
             max_model_file_bytes: 4 << 20,
             controller: ControllerConfig::default(),
+            scene_objects: SceneObjectsParams::default(),
         }
     }
 }
@@ -88,6 +94,7 @@ impl Params {
                 bail!("{place}: `{field}` = {v} must be a positive number");
             }
         }
+        self.scene_objects.validate(place)?;
         if !(1..=(256 << 20)).contains(&self.max_model_file_bytes) {
             bail!("{place}: `max_model_file_bytes` = {} must be in 1..=268435456", self.max_model_file_bytes);
         }
@@ -115,6 +122,30 @@ impl<T: Copy> Mailbox<T> {
     /// Changes the value in place.
     pub fn update(&self, f: impl FnOnce(&mut T)) {
         f(&mut self.0.lock().unwrap_or_else(|p| p.into_inner()));
+    }
+}
+
+/// Obstacle points within this distance of a handover's goal are the hand the object is
+/// handed to (m): the goal is the hand + 5 cm (Sec. 5.1.3), the hand about 10 cm long.
+pub const HANDOVER_HAND_RADIUS_M: f64 = 0.15;
+
+/// A command with end-effector avoidance off (the handover) goes to the person's hand: the
+/// hand is the goal, not something to keep 10 cm from. Links whose closest obstacle point lies
+/// within [`HANDOVER_HAND_RADIUS_M`] of the goal get the damper's known-object distances
+/// (`Distances::scene_object`: it may come to a few cm, as to an object it grasps); every other
+/// obstacle (the person's forearm, body, another person) keeps the full damping, and the links'
+/// null-space avoidance is unchanged. Does nothing while end-effector avoidance is on.
+pub fn mark_handover_goal(d: &mut Distances, command: &MotionCommand) {
+    if command.end_effector_avoidance || matches!(command.primitive, Primitive::Hold) {
+        return;
+    }
+    for (link, mark) in d.links.iter().zip(d.scene_object.iter_mut()).take(d.count) {
+        if link.valid
+            && link.obstacle_point.iter().all(|v| v.is_finite())
+            && (link.obstacle_point.coords - command.goal).norm() <= HANDOVER_HAND_RADIUS_M
+        {
+            *mark = true;
+        }
     }
 }
 
@@ -490,7 +521,10 @@ impl Adapter {
         {
             return bad(e.to_string());
         }
-        Ok((MotionCommand { id: msg.id, primitive, goal, orientation, end_effector_avoidance: true }, model))
+        // A handover has to reach the person's hand: the command may turn the end effector's
+        // avoidance off; null-space avoidance and the other links' damping stay on.
+        let end_effector_avoidance = !msg.end_effector_avoidance_off;
+        Ok((MotionCommand { id: msg.id, primitive, goal, orientation, end_effector_avoidance }, model))
     }
 
     /// A reason for a status message: the controller's fault with link names; while moving,
@@ -540,12 +574,15 @@ pub struct RunOptions {
 /// Runs the node: starts the real-time loop and serves the ROS side until stopped.
 pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunOptions) -> Result<()> {
     let adapter = Adapter::new(&model, params);
+    let base_frame = model.link_names().first().cloned().unwrap_or_default();
+    let mut scene = SceneObjects::from_params(&params.scene_objects, &base_frame)?;
     let ctl = DsController::new(model, params.controller)
         .map_err(|e| anyhow::anyhow!("controller: {e}"))?;
     let joint_sub = node.subscription::<JointState>("/joint_states", &qos::reliable())?;
     let dist_sub = node.subscription::<LinkDistances>("/fded/distances", &qos::reliable())?;
     let human_sub = node.subscription::<HumanStateMsg>("/human/state", &qos::reliable())?;
     let cmd_sub = node.subscription::<MotionCommandMsg>("/motion/command", &qos::reliable_depth(10))?;
+    let world_sub = node.subscription::<WorldState>("/lwr/world", &qos::reliable_depth(10))?;
     let vel_pub = node.publisher::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())?;
     let status_pub = node.publisher::<MotionStatus>("/motion/status", &qos::reliable_depth(10))?;
 
@@ -568,11 +605,18 @@ pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunO
         if params.use_sim_time { "/clock" } else { "wall" },
         params.controller.stale_after_s
     );
+    tracing::info!(
+        "link damper: {} scene objects known{} (their points get the scene distances, from /lwr/world poses)",
+        scene.known(),
+        if params.scene_objects.scene.is_empty() { String::new() } else { format!(" from {}", params.scene_objects.scene) }
+    );
     let result = serve(&node, &adapter, params, options, &clock, &inputs, &rx, ServeIo {
         joint_sub: &joint_sub,
         dist_sub: &dist_sub,
         human_sub: &human_sub,
         cmd_sub: &cmd_sub,
+        world_sub: &world_sub,
+        scene: &mut scene,
         vel_pub: &vel_pub,
         status_pub: &status_pub,
         field_tx: &field_tx,
@@ -593,6 +637,8 @@ struct ServeIo<'a> {
     dist_sub: &'a cowork_ros::Subscription<LinkDistances>,
     human_sub: &'a cowork_ros::Subscription<HumanStateMsg>,
     cmd_sub: &'a cowork_ros::Subscription<MotionCommandMsg>,
+    world_sub: &'a cowork_ros::Subscription<WorldState>,
+    scene: &'a mut SceneObjects,
     vel_pub: &'a cowork_ros::Publisher<Float64MultiArray>,
     status_pub: &'a cowork_ros::Publisher<MotionStatus>,
     field_tx: &'a SyncSender<(u32, Box<Learned>)>,
@@ -618,6 +664,14 @@ fn serve(
     let mut aborted: Option<(u32, String)> = None;
     // The damper's last limited link and when (node clock, s): reported for 0.2 s after.
     let mut limited: Option<(usize, f64)> = None;
+    // Scene-object warnings at most every 5 s (wall).
+    let mut scene_warned: Option<Instant> = None;
+    let mut scene_warn = |text: String| {
+        if scene_warned.is_none_or(|t| t.elapsed() >= Duration::from_secs(5)) {
+            tracing::warn!("{text}");
+            scene_warned = Some(Instant::now());
+        }
+    };
     loop {
         if cowork_ros::shutdown::requested()
             || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
@@ -641,12 +695,27 @@ fn serve(
                 Err(r) => tracing::warn!("/joint_states rejected: {}", r.reason),
             }
         }
+        // Object poses before the distances they classify.
+        while let Some(m) = io.world_sub.take() {
+            if let Err(why) = io.scene.on_world(&m) {
+                scene_warn(format!("/lwr/world refused: {why}; no scene object known until a good report (the damper treats every obstacle as a person)"));
+            }
+        }
         while let Some(m) = io.dist_sub.take() {
             match adapter.distances(&m, m.header.stamp.to_secs_f64()) {
-                Ok(d) => inputs.update(|i| {
+                Ok(mut d) => {
+                    if io.scene.known() > 0 && io.scene.mark(&mut d).is_none() {
+                        scene_warn(format!(
+                            "no /lwr/world report within {} s of /fded/distances at {:.3} s: no scene object known (the damper treats every obstacle as a person)",
+                            params.scene_objects.max_age_s, d.stamp
+                        ));
+                    }
+                    mark_handover_goal(&mut d, &inputs.read().command);
+                    inputs.update(|i| {
                     i.distances = d;
                     i.distances_rejected = None;
-                }),
+                    })
+                }
                 Err(r) => {
                     tracing::warn!("/fded/distances rejected, robot held: {}", r.reason);
                     inputs.update(|i| i.distances_rejected = Some("malformed message (see the log)"));

@@ -169,13 +169,7 @@ fn half_extents(shape: &Shape) -> [f64; 3] {
 
 /// Whether `p` (object frame, m) lies inside `shape` grown by `margin` (m).
 fn inside(shape: &Shape, margin: f64, p: &Point3<f64>) -> bool {
-    match *shape {
-        Shape::Box { size } => (0..3).all(|i| p[i].abs() <= size[i] / 2.0 + margin),
-        Shape::Cylinder { radius, height } => {
-            p.x.hypot(p.y) <= radius + margin && p.z.abs() <= height / 2.0 + margin
-        }
-        Shape::Sphere { radius } => p.coords.norm() <= radius + margin,
-    }
+    shape.contains_grown(p, margin)
 }
 
 /// Sets to no return the pixels of `depth` whose point lies inside `shape` (grown by

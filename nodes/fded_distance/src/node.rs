@@ -201,7 +201,10 @@ impl FdedNode {
                 skip("engine", format!("{TOPIC_CAMERA_INFO}: cannot build the Flacco baseline for a {}x{} camera: {e}", k.width, k.height))
             })?;
             tracing::info!("method flacco: Flacco et al.'s spheres (CPU) compute the distances");
-            self.flacco = Some((Flacco::new(&self.model, FlaccoParams::default()), Box::new(cpu), Vec::new()));
+            let window = self.params.flacco;
+            let params = FlaccoParams { min_depth: window.min_depth, max_depth: window.max_depth, ..FlaccoParams::default() };
+            tracing::info!("method flacco: depth window {:.2}-{:.2} m", window.min_depth, window.max_depth);
+            self.flacco = Some((Flacco::new(&self.model, params), Box::new(cpu), Vec::new()));
         }
         self.engine = Some((k, engine));
         Ok(())

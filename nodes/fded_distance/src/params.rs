@@ -41,6 +41,27 @@ pub struct Params {
     pub fded: FdedParams,
     /// The objects the robot manipulates are not obstacles (see [`crate::manipulated`]).
     pub manipulated: ManipulatedParams,
+    /// `method: flacco`: the sphere method's depth window.
+    pub flacco: FlaccoWindow,
+}
+
+/// The `flacco:` block: depths Flacco et al.'s method looks at (camera frame, m). The thesis's
+/// 1.8–3.5 m (the defaults) fit its camera, which saw the robot beyond 1.8 m; a camera nearer
+/// the workspace needs its own window, or the method never sees a person next to the arm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FlaccoWindow {
+    /// Depths below this are skipped, m.
+    pub min_depth: f64,
+    /// Depths above this are skipped, m.
+    pub max_depth: f64,
+}
+
+impl Default for FlaccoWindow {
+    fn default() -> Self {
+        let p = cowork_fded::baseline::FlaccoParams::default();
+        Self { min_depth: p.min_depth, max_depth: p.max_depth }
+    }
 }
 
 /// The `manipulated:` block: which pixels of `/manipulated_objects` are removed.
@@ -86,6 +107,7 @@ impl Default for Params {
             min_valid_fraction: 0.05,
             fded: FdedParams::default(),
             manipulated: ManipulatedParams::default(),
+            flacco: FlaccoWindow::default(),
         }
     }
 }
@@ -107,6 +129,14 @@ impl Params {
                 bail!("{place}: `{name}` = {v} must be a positive number");
             }
         }
+        let f = &self.flacco;
+        if !(f.min_depth.is_finite() && f.max_depth.is_finite() && 0.0 <= f.min_depth && f.min_depth < f.max_depth) {
+            bail!(
+                "{place}: `flacco.min_depth` = {} / `flacco.max_depth` = {} must be finite with 0 <= min < max (m)",
+                f.min_depth,
+                f.max_depth
+            );
+        }
         let m = &self.manipulated;
         if !(m.margin_m.is_finite() && (0.0..=0.2).contains(&m.margin_m)) {
             bail!("{place}: `manipulated.margin_m` = {} must be in [0, 0.2] m", m.margin_m);
@@ -118,15 +148,16 @@ impl Params {
             bail!("{place}: `min_valid_fraction` = {} must be in [0, 1)", self.min_valid_fraction);
         }
         let p = &self.camera_pose;
-        let finite = p
-            .position
-            .iter()
-            .chain(p.rpy.iter().flatten())
-            .chain(p.quaternion_xyzw.iter().flatten())
-            .chain(p.look_at.iter().flatten())
-            .all(|v| v.is_finite());
-        if !finite {
-            bail!("{place}: `camera_pose` has a non-finite value");
+        let fields: [(&str, &[f64]); 4] = [
+            ("position", &p.position),
+            ("rpy", p.rpy.as_ref().map_or(&[], |v| v.as_slice())),
+            ("quaternion_xyzw", p.quaternion_xyzw.as_ref().map_or(&[], |v| v.as_slice())),
+            ("look_at", p.look_at.as_ref().map_or(&[], |v| v.as_slice())),
+        ];
+        for (name, values) in fields {
+            if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+                bail!("{place}: `camera_pose.{name}[{i}]` is {}: must be finite", values[i]);
+            }
         }
         if let Some(t) = p.look_at
             && (0..3).all(|i| (t[i] - p.position[i]).abs() < 1e-9)

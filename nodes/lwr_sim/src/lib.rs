@@ -9,7 +9,7 @@
 //! frame or the base link means a base-frame wrench at the tool point).
 //! `/human/skeleton` (cowork_msgs/Skeleton, base frame): each person is drawn in the depth image
 //! as a capsule body on the floor (see [`depth::People`]).
-//! Outputs: `/clock`, `/joint_states`, `/tf` (links and objects), `/tf_static` (camera),
+//! Outputs: `/clock`, `/joint_states`, `/tf` (link tree parent → child, objects), `/tf_static` (camera),
 //! `/lwr/world` (cowork_msgs/WorldState: gripper, held object, tool pose, every object's pose,
 //! tool distance and tilt, at `publish.world_rate_hz`; what the robot manager and the
 //! experiments' success checks read),
@@ -22,7 +22,7 @@ pub mod depth;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use anyhow::{Result, bail};
+use anyhow::{Context as _, Result, bail};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion, Transform, TransformStamped, Vector3, WrenchStamped};
 use cowork_msgs::msg::{Skeleton, WorldObject, WorldState};
@@ -330,22 +330,16 @@ impl LwrSim {
         self.joint_state.clone()
     }
 
-    /// `/tf`: every link and every object relative to the base frame.
+    /// `/tf`: the frame tree as `robot_state_publisher` publishes it — each link in its parent
+    /// link's frame (one transform per joint) — plus every object in the base frame.
     pub fn tf(&self) -> TFMessage {
         let stamp = self.now();
-        let names = self.sim.model().link_names();
-        let poses = self.sim.link_poses();
-        let links = names
-            .iter()
-            .enumerate()
-            .skip(1)
-            .map(|(i, name)| transform(&self.base_frame, name, stamp, poses.get(i)));
-        let objects = self
+        let transforms = self
             .sim
-            .objects()
-            .iter()
-            .map(|o| transform(&self.base_frame, &o.name, stamp, &o.pose));
-        TFMessage { transforms: links.chain(objects).collect() }
+            .frame_tree()
+            .map(|e| transform(e.parent.unwrap_or(&self.base_frame), e.child, stamp, &e.pose))
+            .collect();
+        TFMessage { transforms }
     }
 
     /// `/lwr/world`: gripper state, held object, tool pose and every object (pose, distance
@@ -381,6 +375,18 @@ impl LwrSim {
         }
     }
 
+    /// `/robot_description`: the URDF the simulator runs, with each relative mesh path made an
+    /// absolute `file://` URI so RViz's RobotModel and Foxglove's 3D panel on this machine find
+    /// the meshes (`package://` and absolute URIs are left as they are).
+    pub fn robot_description(&self) -> Result<RosString> {
+        let source = self.sim.model().source();
+        let text = std::fs::read_to_string(source)
+            .with_context(|| format!("cannot read the robot description {}", source.display()))?;
+        let dir = source.parent().unwrap_or(std::path::Path::new("."));
+        let dir = std::fs::canonicalize(dir).with_context(|| format!("cannot resolve {}", dir.display()))?;
+        Ok(RosString { data: absolute_mesh_uris(&text, &dir) })
+    }
+
     /// `/tf_static`: the camera's optical frame.
     pub fn tf_static(&self) -> TFMessage {
         let camera = &self.sim.scene().camera;
@@ -402,6 +408,28 @@ fn pose(p: &Isometry3<f64>) -> Pose {
         position: Point { x: t.x, y: t.y, z: t.z },
         orientation: Quaternion { x: q.i, y: q.j, z: q.k, w: q.w },
     }
+}
+
+/// `filename="meshes/x.stl"` → `filename="file:///dir/meshes/x.stl"`; URIs with a scheme and
+/// absolute paths are kept.
+fn absolute_mesh_uris(urdf: &str, dir: &std::path::Path) -> String {
+    const KEY: &str = "filename=\"";
+    let mut out = String::with_capacity(urdf.len() + 64);
+    let mut rest = urdf;
+    while let Some(i) = rest.find(KEY) {
+        let (head, tail) = rest.split_at(i + KEY.len());
+        out.push_str(head);
+        if !(tail.contains("://") && tail.find("://") < tail.find('"')) && !tail.starts_with('/') {
+            out.push_str("file://");
+            out.push_str(&dir.to_string_lossy());
+            out.push('/');
+        } else if tail.starts_with('/') {
+            out.push_str("file://");
+        }
+        rest = tail;
+    }
+    out.push_str(rest);
+    out
 }
 
 fn transform(parent: &str, child: &str, stamp: Time, pose: &Isometry3<f64>) -> TransformStamped {
@@ -455,6 +483,9 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
     let tf_static = node.publisher::<TFMessage>("/tf_static", &qos::latched())?;
     let world = node.publisher::<WorldState>(TOPIC_WORLD, &qos::reliable_depth(100))?;
     tf_static.publish(lwr.tf_static())?;
+    // Latched, as robot_state_publisher's: a viewer that joins later still gets it.
+    let description = node.publisher::<RosString>("/robot_description", &qos::latched())?;
+    description.publish(lwr.robot_description()?)?;
     let camera = if lwr.config_depth.enabled {
         let image = node.publisher::<Image>("/camera/depth/image_raw", &qos::sensor_data())?;
         let info = node.publisher::<CameraInfo>("/camera/depth/camera_info", &qos::sensor_data())?;

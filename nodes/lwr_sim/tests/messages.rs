@@ -43,14 +43,50 @@ fn topics_are_due_at_their_rates_and_stamped_with_sim_time() {
 }
 
 #[test]
-fn tf_has_every_link_and_object_and_the_camera_is_static() {
-    let n = node();
-    let tf = n.tf();
-    let children: Vec<&str> = tf.transforms.iter().map(|t| t.child_frame_id.as_str()).collect();
-    for want in ["lwr_link_1", "lwr_link_7", "bottle", "cup", "coffee"] {
-        assert!(children.contains(&want), "{want} missing from {children:?}");
+fn tf_is_the_link_tree_plus_objects_and_the_camera_is_static() {
+    let mut n = node();
+    // Move every joint so a wrong parent or an inverted transform shows.
+    n.on_velocity_command(&Float64MultiArray { data: vec![0.3, -0.2, 0.4, 0.3, -0.5, 0.2, 0.6], ..Default::default() });
+    for _ in 0..200 {
+        n.step();
     }
-    assert!(tf.transforms.iter().all(|t| t.header.frame_id == "lwr_base_link"));
+    let tf = n.tf();
+    let edge = |child: &str| tf.transforms.iter().find(|t| t.child_frame_id == child);
+    for want in ["lwr_link_1", "lwr_link_7", "bottle", "cup", "coffee"] {
+        assert!(edge(want).is_some(), "{want} missing from /tf");
+    }
+    // Every link of the URDF reaches the base through /tf, parent by parent, and the composed
+    // transform is the link's pose in the base frame.
+    let model = n.simulator().model().clone();
+    let poses = *n.simulator().link_poses();
+    let iso = |t: &cowork_msgs::geometry_msgs::TransformStamped| {
+        let (p, q) = (&t.transform.translation, &t.transform.rotation);
+        nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(p.x, p.y, p.z),
+            nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q.w, q.x, q.y, q.z)),
+        )
+    };
+    let names = model.link_names();
+    for (i, name) in names.iter().enumerate().skip(1) {
+        let t = edge(name).unwrap_or_else(|| panic!("{name} has no transform"));
+        assert_eq!(t.header.frame_id, names[i - 1], "{name}'s parent is the previous link of the chain");
+        let (mut pose, mut frame) = (iso(t), t.header.frame_id.clone());
+        for _ in 0..names.len() {
+            if frame == "lwr_base_link" {
+                break;
+            }
+            let up = edge(&frame).unwrap_or_else(|| panic!("{frame} does not reach the base"));
+            pose = iso(up) * pose;
+            frame = up.header.frame_id.clone();
+        }
+        assert_eq!(frame, "lwr_base_link", "{name} reaches the base");
+        let err = (pose.translation.vector - poses.get(i).translation.vector).norm();
+        let ang = pose.rotation.angle_to(&poses.get(i).rotation);
+        assert!(err < 1e-9 && ang < 1e-9, "{name}: composed /tf is off by {err} m, {ang} rad");
+    }
+    for object in ["bottle", "cup", "coffee"] {
+        assert_eq!(edge(object).map(|t| t.header.frame_id.as_str()), Some("lwr_base_link"));
+    }
     let st = n.tf_static();
     assert_eq!(st.transforms[0].child_frame_id, "camera_depth_optical_frame");
     let q = &st.transforms[0].transform.rotation;
@@ -162,4 +198,17 @@ fn following_wrench_stamps_applies_each_at_its_time_and_waits_for_the_teacher() 
     assert!(n.simulator().tool_pose().translation.z > z0 + 1e-4, "pushed up from 0.05 s");
     n.on_wrench(&push(0.2, 0.0));
     assert!(!n.waiting_for_wrench());
+}
+
+#[test]
+fn robot_description_is_the_urdf_with_meshes_a_viewer_can_open() {
+    let n = node();
+    let urdf = n.robot_description().expect("robot description").data;
+    assert!(urdf.contains("<robot") && urdf.contains("lwr_link_7"), "the URDF text");
+    let meshes: Vec<&str> = urdf.split("filename=\"").skip(1).filter_map(|t| t.split('"').next()).collect();
+    assert!(meshes.len() >= 8, "{meshes:?}");
+    for uri in meshes {
+        let path = uri.strip_prefix("file://").unwrap_or_else(|| panic!("{uri} is not a file:// URI"));
+        assert!(std::path::Path::new(path).is_file(), "{uri} does not exist");
+    }
 }

@@ -6,6 +6,7 @@
 #
 #   nodes/robot_manager/scripts/execute_pour.sh [TEACH_DIR] [X Y] [OUT_DIR] [TIMEOUT_S]
 #
+# RECORD_EXTRA="/fded/distances /tf" records more topics (for nodes/robot_manager/scripts/damper_census.py).
 # TEACH_DIR is what teach_from_bag.sh left (default out/teach-pour). Needs the release binaries.
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
@@ -56,7 +57,7 @@ $bin/lwr_sim --scene "$out/scene.yaml" --rate 1 >"$out/lwr_sim.log" 2>&1 & pids+
 $bin/fded_distance --params config/fded_distance.yaml --use-sim-time >"$out/fded_distance.log" 2>&1 & pids+=($!)
 $bin/human_observer --params config/human_observer.yaml --use-sim-time >"$out/human_observer.log" 2>&1 & pids+=($!)
 $bin/ds_controller --params "$out/ds_controller.yaml" --use-sim-time >"$out/ds_controller.log" 2>&1 & pids+=($!)
-$bin/cowork bag record -o "$out/run.mcap" /lwr/world /robot_stream /supervisor/action /motion/status /motion/command >"$out/record.log" 2>&1 & pids+=($!)
+$bin/cowork bag record -o "$out/run.mcap" /lwr/world /robot_stream /supervisor/action /motion/status /motion/command ${RECORD_EXTRA:-} >"$out/record.log" 2>&1 & pids+=($!)
 sleep 3
 $bin/robot_manager --use-sim-time --database-dir "$out/primitives" >"$out/robot_manager.log" 2>&1 & pids+=($!)
 $bin/attentional_supervisor --ltm "$teach/learned.schema" --task pourDrink --use-sim-time >"$out/attentional_supervisor.log" 2>&1 & pids+=($!)

@@ -1,7 +1,9 @@
 """Judges a pour execution from what the simulator reported (/lwr/world in RUN.mcap), never
 from commands: the bottle was grasped, carried over the cup and tilted there (mouth towards the
 cup, tilt > 90 deg), released upright on the table. Prints one JSON line with the times of
-take(water) and pour(water) from the action events on /robot_stream.
+take(water) and pour(water) from the action events on /robot_stream, and the subtask times of
+thesis Table 5.4 from the world alone (a recorder can miss the first events while DDS discovery
+runs): take = first tool motion -> bottle held, pour = held -> released, add = the two.
 
     python3 judge_pour.py RUN.mcap   (needs mcap_ros2, e.g. .venv-crosscheck/bin/python)"""
 
@@ -20,7 +22,8 @@ def main():
             w = m.ros_msg
             t = w.header.stamp.sec + 1e-9 * w.header.stamp.nanosec
             objs = {o.name: o for o in w.objects}
-            worlds.append((t, w.held_object, objs))
+            tool = (w.tool_pose.position.x, w.tool_pose.position.y, w.tool_pose.position.z)
+            worlds.append((t, w.held_object, objs, tool))
         else:
             r = m.ros_msg
             t = r.header.stamp.sec + 1e-9 * r.header.stamp.nanosec
@@ -51,6 +54,15 @@ def main():
         t1 = next((t for t, l, d, f, _ in events if l == last_label and d), None)
         return None if t0 is None or t1 is None else round(t1 - t0, 2)
 
+    # Subtask times from the world: the tool's first 5 mm of motion, the grasp, the release.
+    t_move = next((w[0] for w in worlds if math.dist(w[3], worlds[0][3]) > 0.005), None)
+    t_held = next((w[0] for w in worlds if w[1] == "bottle"), None)
+    t_free = next((w[0] for w in worlds if t_held is not None and w[0] > t_held and w[1] == ""), None)
+    world_times = {
+        "take_s": None if t_move is None or t_held is None else round(t_held - t_move, 2),
+        "pour_s": None if t_held is None or t_free is None else round(t_free - t_held, 2),
+        "add_s": None if t_move is None or t_free is None else round(t_free - t_move, 2),
+    }
     out = {
         "success": all(checks.values()),
         "checks": checks,
@@ -60,6 +72,7 @@ def main():
         "tilted_over_cup_s": round(len(poured) / 100.0, 2),
         "take_s": span("foa1(water)", "close3(water)"),
         "pour_s": span("foa4(cup)", "open7(water)"),
+        "world_times": world_times,
         "failed": [(l, r) for _, l, _, f, r in events if f],
     }
     print(json.dumps(out))

@@ -148,6 +148,7 @@ pub struct RobotManagerNode {
     out: Vec<Output>,
     limiter: WarnLimiter,
     warnings: u64,
+    last_warning: Option<String>,
     last_world: Option<WorldState>,
 }
 
@@ -191,6 +192,7 @@ impl RobotManagerNode {
             out: Vec::new(),
             limiter,
             warnings: 0,
+            last_warning: None,
             last_world: None,
         };
         (node, problem)
@@ -218,25 +220,39 @@ impl RobotManagerNode {
 
     /// Saves the database (atomically) if it changed; true when it saved.
     pub fn save_if_changed(&mut self) -> cowork_manager::Result<bool> {
-        if !self.db_dirty {
-            return Ok(false);
+        let Some(db) = self.take_changes() else { return Ok(false) };
+        if let Err(e) = write_database(&self.db_path, &db) {
+            self.save_failed();
+            return Err(e);
         }
-        if let Some(dir) = self.db_path.parent()
-            && !dir.as_os_str().is_empty()
-        {
-            std::fs::create_dir_all(dir).map_err(|source| cowork_manager::ManagerError::Io {
-                op: "creating the directory of",
-                path: self.db_path.clone(),
-                source,
-            })?;
-        }
-        self.manager.database().save(&self.db_path)?;
-        self.db_dirty = false;
         Ok(true)
+    }
+
+    /// A copy of the database when it changed since the last call (the change is then counted
+    /// as handed over: call [`save_failed`](Self::save_failed) if writing it fails), for a saver
+    /// that writes it with [`write_database`] off the message loop.
+    pub fn take_changes(&mut self) -> Option<Database> {
+        if !self.db_dirty {
+            return None;
+        }
+        self.db_dirty = false;
+        Some(self.manager.database().clone())
+    }
+
+    /// Writing what [`take_changes`](Self::take_changes) gave failed: the database counts as
+    /// changed again (the next save writes it whole).
+    pub fn save_failed(&mut self) {
+        self.db_dirty = true;
+    }
+
+    /// The newest warning (also logged, rate-limited), for tests and diagnostics.
+    pub fn last_warning(&self) -> Option<&str> {
+        self.last_warning.as_deref()
     }
 
     fn warn(&mut self, text: &str) {
         self.warnings += 1;
+        self.last_warning = Some(text.to_owned());
         self.limiter.warn(text);
     }
 
@@ -415,4 +431,19 @@ impl RobotManagerNode {
     pub fn tick(&mut self, now: Stamp, outbox: &mut Outbox) {
         self.run(Input::Tick, now, outbox);
     }
+}
+
+/// Writes `db` to `path` atomically and durably ([`Database::save`]: temporary file, fsync,
+/// rename, directory fsync), creating its directory first.
+pub fn write_database(path: &Path, db: &Database) -> cowork_manager::Result<()> {
+    if let Some(dir) = path.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir).map_err(|source| cowork_manager::ManagerError::Io {
+            op: "creating the directory of",
+            path: path.to_owned(),
+            source,
+        })?;
+    }
+    db.save(path)
 }

@@ -1,5 +1,9 @@
-//! [`run`]: the node over DDS. One thread: take every message, hand it to the node, publish
-//! what it produced, tick at `tick_rate_hz`, save the database when it changed.
+//! [`run`]: the node over DDS. One thread takes every message, hands it to the node, publishes
+//! what it produced and ticks at `tick_rate_hz`; a saver thread writes the database when it
+//! changed. Why a second thread: a save syncs the file and its directory, which took 2.6 s on
+//! a loaded machine, and meanwhile the `/lwr/world` reports of a demonstration (100 Hz of
+//! simulated time, a depth-100 queue) overflowed — a whole NOA was never segmented. The saver
+//! always writes the newest copy it was given; saves finish in order.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -11,7 +15,7 @@ use cowork_msgs::msg::{ActionCommand, Gesture, MotionCommand, MotionStatus, Obje
 use cowork_msgs::std_msgs::String as RosString;
 use cowork_ros::{RosNode, qos};
 
-use crate::node::{Outbox, RobotManagerNode};
+use crate::node::{Outbox, RobotManagerNode, write_database};
 use crate::topics;
 
 /// Options of [`run`].
@@ -58,6 +62,32 @@ pub fn run(mut node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, optio
     let mut next_tick = 0.0f64;
     let mut save_retry: Option<Instant> = None;
     let mut told_world = false;
+    let (save_tx, save_rx) = std::sync::mpsc::channel::<cowork_manager::Database>();
+    let (done_tx, done_rx) = std::sync::mpsc::channel::<Result<usize, String>>();
+    let saver = {
+        let path = rm.database_path().to_path_buf();
+        std::thread::Builder::new().name("robot_manager-save".into()).spawn(move || {
+            while let Ok(mut db) = save_rx.recv() {
+                // Only the newest copy matters.
+                while let Ok(newer) = save_rx.try_recv() {
+                    db = newer;
+                }
+                let r = write_database(&path, &db).map(|()| db.primitives.len()).map_err(|e| e.to_string());
+                if done_tx.send(r).is_err() {
+                    break;
+                }
+            }
+        })?
+    };
+    let path = rm.database_path().display().to_string();
+    let report = |rm: &mut RobotManagerNode, r: Result<usize, String>, save_retry: &mut Option<Instant>| match r {
+        Ok(n) => tracing::info!("primitive database saved: {n} primitives in {path}"),
+        Err(e) => {
+            rm.save_failed();
+            *save_retry = Some(Instant::now());
+            tracing::error!("cannot save the primitive database (retrying every second): {e}");
+        }
+    };
     while !stop_requested() {
         let stamp = Stamp { t: node.now().to_secs_f64(), unix_s: unix_s() };
         out.clear();
@@ -107,25 +137,28 @@ pub fn run(mut node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, optio
         for m in out.manipulated.drain(..) {
             manipulated_pub.publish(m)?;
         }
+        while let Ok(r) = done_rx.try_recv() {
+            report(&mut rm, r, &mut save_retry);
+        }
         if rm.database_dirty() && save_retry.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
-            match rm.save_if_changed() {
-                Ok(_) => {
-                    save_retry = None;
-                    tracing::info!(
-                        "primitive database saved: {} primitives in {}",
-                        rm.manager().database().primitives.len(),
-                        rm.database_path().display()
-                    );
-                }
-                Err(e) => {
-                    save_retry = Some(Instant::now());
-                    tracing::error!("cannot save the primitive database (retrying every second): {e}");
-                }
+            save_retry = None;
+            if let Some(db) = rm.take_changes()
+                && save_tx.send(db).is_err()
+            {
+                anyhow::bail!("the primitive database saver stopped");
             }
         }
         if !any {
             std::thread::sleep(Duration::from_micros(500));
         }
+    }
+    // Let the saver finish what it was given, then save what is still unsaved here.
+    drop(save_tx);
+    if saver.join().is_err() {
+        tracing::error!("the primitive database saver panicked");
+    }
+    while let Ok(r) = done_rx.try_recv() {
+        report(&mut rm, r, &mut save_retry);
     }
     if rm.database_dirty() {
         rm.save_if_changed()

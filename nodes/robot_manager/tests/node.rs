@@ -106,3 +106,81 @@ fn every_world_report_gives_the_manipulated_objects_with_its_stamp() {
     n.on_world(&w, at(1.2), &mut out);
     assert_eq!(out.manipulated[0].objects.len(), 1);
 }
+
+/// A world with the tool at `tool` (m) and the bottle and cup where the kitchen has them;
+/// `with_cup` false: the cup is not in the scene.
+fn world_with(t: f64, tool: [f64; 3], with_cup: bool) -> WorldState {
+    let dist = |c: [f64; 3], r: f64| (((tool[0] - c[0]).powi(2) + (tool[1] - c[1]).powi(2) + (tool[2] - c[2]).powi(2)).sqrt() - r).max(0.0);
+    let mut w = world(t);
+    w.tool_pose = pose(tool[0], tool[1], tool[2]);
+    w.objects = vec![WorldObject { name: "bottle".into(), pose: pose(0.45, 0.35, 0.11), tool_distance: dist([0.45, 0.35, 0.11], 0.035), ..Default::default() }];
+    if with_cup {
+        w.objects.push(WorldObject { name: "cup".into(), pose: pose(0.6, 0.0, 0.05), tool_distance: dist([0.6, 0.0, 0.05], 0.04), ..Default::default() });
+    }
+    w
+}
+
+/// The bad inputs of issue #13, one after the other into one node: each is named in a
+/// warning or a failed action event, the robot is held (a HOLD `/motion/command`), and the node
+/// keeps working (it executes a good action afterwards).
+#[test]
+fn bad_input_is_named_the_robot_held_and_the_node_keeps_running() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (mut n, problem) = RobotManagerNode::new(params(dir.path()), 1);
+    assert!(problem.is_none());
+    let mut out = Outbox::default();
+    // Teach foa/noa towards the bottle through the handlers (the tool guided into its sphere).
+    let (far, near) = ([0.30, 0.0, 0.50], [0.45, 0.35, 0.24]);
+    let mut t = 1.0;
+    n.on_world(&world_with(t, far, true), at(t), &mut out);
+    n.on_speech(&RosString { data: "teach".into() }, at(t), &mut out);
+    for (a, b) in [(far, near), (near, far)] {
+        for k in 1..=80 {
+            t += 0.01;
+            let s = f64::from(k) / 80.0;
+            let p = [a[0] + (b[0] - a[0]) * s, a[1] + (b[1] - a[1]) * s, a[2] + (b[2] - a[2]) * s];
+            n.on_world(&world_with(t, p, true), at(t), &mut out);
+        }
+    }
+    n.on_speech(&RosString { data: "done".into() }, at(t), &mut out);
+    let learned: Vec<String> = out.robot_stream.iter().flat_map(|r| r.segments.iter().map(|s| s.label.clone())).collect();
+    let noa = learned.iter().find(|l| l.starts_with("noa")).cloned().unwrap_or_else(|| panic!("a NOA at the bottle: {learned:?}"));
+    let held = |out: &Outbox| out.motion.last().is_some_and(|m| m.kind == MotionCommand::KIND_HOLD);
+    let failed = |out: &Outbox, id: u32| -> String {
+        out.robot_stream.iter().flat_map(|r| r.events.iter()).find(|e| e.command_id == id && e.failed).map(|e| e.reason.clone()).unwrap_or_default()
+    };
+
+    // An action label with no primitive.
+    out.clear();
+    n.on_action(&ActionCommand { id: 21, label: "noa42(water)".into(), ..Default::default() }, at(t), &mut out);
+    assert!(failed(&out, 21).contains("no primitive `noa42`"), "{out:?}");
+    assert!(held(&out));
+    // A primitive for an object that is not in the scene: the bottle gone from the world.
+    t += 0.01;
+    let mut w = world_with(t, far, true);
+    w.objects.retain(|o| o.name != "bottle");
+    n.on_world(&w, at(t), &mut out);
+    out.clear();
+    n.on_action(&ActionCommand { id: 22, label: noa.clone(), ..Default::default() }, at(t), &mut out);
+    let why = failed(&out, 22);
+    assert!(why.contains("`water`") && why.contains("not in the scene"), "{why:?} {out:?}");
+    assert!(held(&out));
+    // A gripper command while holding nothing: the hand is already free — done, with a warning.
+    t += 0.01;
+    n.on_world(&world_with(t, far, true), at(t), &mut out);
+    out.clear();
+    n.on_action(&ActionCommand { id: 23, label: "gripper(open)".into(), ..Default::default() }, at(t), &mut out);
+    assert!(n.last_warning().is_some_and(|w| w.contains("holds nothing")), "{:?}", n.last_warning());
+    assert!(out.robot_stream.iter().flat_map(|r| r.events.iter()).any(|e| e.command_id == 23 && e.done));
+    // /motion/status for an unknown command id.
+    n.on_motion_status(&MotionStatus { command_id: 9999, state: MotionStatus::STATE_CONVERGED, ..Default::default() }, at(t), &mut out);
+    assert!(n.last_warning().is_some_and(|w| w.contains("unknown command id 9999")), "{:?}", n.last_warning());
+    // Speech out of the vocabulary.
+    n.on_speech(&RosString { data: "make me a sandwich".into() }, at(t), &mut out);
+    assert!(n.last_warning().is_some_and(|w| w.contains("make me a sandwich") && w.contains("not in the vocabulary")), "{:?}", n.last_warning());
+    // Still working: the taught NOA runs towards the bottle.
+    out.clear();
+    n.on_action(&ActionCommand { id: 24, label: noa.clone(), ..Default::default() }, at(t), &mut out);
+    assert!(failed(&out, 24).is_empty(), "{out:?}");
+    assert!(out.motion.last().is_some_and(|m| m.label == noa && m.kind != MotionCommand::KIND_HOLD), "{:?}", out.motion);
+}

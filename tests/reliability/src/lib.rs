@@ -26,6 +26,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 pub mod mutate;
+mod streams;
 pub mod targets;
 
 /// What the product did with one input.

@@ -52,6 +52,7 @@ pub fn all() -> Result<Vec<Target>> {
     out.push(learned_model_target()?);
     out.push(gesture_model_target(&root)?);
     out.extend(params_targets(&root)?);
+    out.extend(crate::streams::targets(&root, &bag_seeds)?);
     Ok(out)
 }
 

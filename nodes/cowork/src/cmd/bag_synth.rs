@@ -31,6 +31,15 @@ pub struct SynthArgs {
     /// The config folder (robot URDF, scenes, lwr_sim.yaml).
     #[arg(long, default_value = "config")]
     pub config_dir: PathBuf,
+    /// Kinesthetic scenarios: a teacher drawn from the seed (pace, path, grasp) instead of the
+    /// bundled one.
+    #[arg(long)]
+    pub vary_teacher: bool,
+    /// Kinesthetic scenarios: a demonstration made before this one in the same session (with
+    /// the same seed, noise and teacher); repeat in order. The bag starts where they left the
+    /// arm and the objects, so `cowork teach --bag A --bag B` replays them one after the other.
+    #[arg(long = "after")]
+    pub after: Vec<String>,
 }
 
 /// Writes the bag and prints what it holds.
@@ -42,6 +51,8 @@ pub fn run(args: SynthArgs) -> Result<()> {
         noise: !args.no_noise,
         depth: !args.no_depth,
         config_dir: args.config_dir,
+        vary_teacher: args.vary_teacher,
+        after: args.after.iter().map(|a| a.parse()).collect::<Result<_, _>>()?,
     };
     let bar = ProgressBar::new(1000);
     bar.set_style(

@@ -3,14 +3,15 @@
 //! the task script, judges from the simulated world and stops everything; descriptions,
 //! sequencing and judging are in `cowork_experiment`.
 
+mod gestures;
+
 use std::collections::BTreeMap;
-use std::fs::File;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
+use cowork_experiment::cooperation::Latency;
 use cowork_experiment::judge::Subtask;
 use cowork_experiment::report::ReportTrial;
 use cowork_experiment::{
@@ -30,7 +31,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Arguments of `cowork experiment`.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// Experiment: stacking-hri.
+    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4).
     pub name: String,
     /// Trials (seeds seed, seed + 1, ...).
     #[arg(long, default_value_t = 1)]
@@ -80,108 +81,20 @@ pub struct ExperimentArgs {
     pub startup_timeout: f64,
 }
 
-/// One node process of the graph.
-struct Proc {
-    name: String,
-    child: Child,
-    log: PathBuf,
-}
-
-/// The graph of one trial; dropping it stops every process (INT, then KILL after 5 s).
-struct Graph {
-    procs: Vec<Proc>,
-}
-
-impl Graph {
-    fn spawn(
-        &mut self,
-        name: &str,
-        program: &Path,
-        args: &[String],
-        domain: u16,
-        logs: &Path,
-    ) -> Result<()> {
-        let log = logs.join(format!("{name}.log"));
-        let out = File::create(&log).with_context(|| format!("creating {}", log.display()))?;
-        let err = out.try_clone()?;
-        let child = Command::new(program)
-            .args(args)
-            .env("ROS_DOMAIN_ID", domain.to_string())
-            .stdin(Stdio::null())
-            .stdout(out)
-            .stderr(err)
-            .spawn()
-            .with_context(|| format!("cannot start {name} ({})", program.display()))?;
-        self.procs.push(Proc {
-            name: name.to_owned(),
-            child,
-            log,
-        });
-        Ok(())
-    }
-
-    /// The first process that has exited, with its status and the last line of its log.
-    fn exited(&mut self) -> Option<String> {
-        for p in &mut self.procs {
-            if let Ok(Some(status)) = p.child.try_wait() {
-                let last = std::fs::read_to_string(&p.log)
-                    .ok()
-                    .and_then(|s| {
-                        s.lines()
-                            .rev()
-                            .find(|l| !l.trim().is_empty())
-                            .map(str::to_owned)
-                    })
-                    .unwrap_or_default();
-                return Some(format!(
-                    "{} exited ({status}); log {}: {last}",
-                    p.name,
-                    p.log.display()
-                ));
-            }
-        }
-        None
-    }
-
-    fn stop(&mut self) {
-        for p in &mut self.procs {
-            if matches!(p.child.try_wait(), Ok(None)) {
-                let pid = nix::unistd::Pid::from_raw(p.child.id() as i32);
-                let _ = nix::sys::signal::kill(pid, nix::sys::signal::Signal::SIGINT);
-            }
-        }
-        let deadline = Instant::now() + Duration::from_secs(5);
-        for p in &mut self.procs {
-            loop {
-                match p.child.try_wait() {
-                    Ok(Some(_)) | Err(_) => break,
-                    Ok(None) if Instant::now() >= deadline => {
-                        tracing::warn!("{} did not stop within 5 s; killing it", p.name);
-                        let _ = p.child.kill();
-                        let _ = p.child.wait();
-                        break;
-                    }
-                    Ok(None) => std::thread::sleep(Duration::from_millis(20)),
-                }
-            }
-        }
-        self.procs.clear();
-    }
-}
-
-impl Drop for Graph {
-    fn drop(&mut self) {
-        self.stop();
-    }
-}
-
 /// A DDS domain of our own for trial `k` (process id based, so parallel runs rarely meet).
 fn private_domain(k: u32) -> u16 {
-    120 + ((std::process::id().wrapping_mul(7).wrapping_add(k)) % 100) as u16
+    cowork_graph::private_domain(120, 100, k)
 }
 
 /// Runs the experiment and writes what was asked.
 pub fn run(args: ExperimentArgs) -> Result<()> {
+    if super::experiment_kitchen::NAMES.contains(&args.name.as_str()) {
+        return super::experiment_kitchen::run(&args);
+    }
+    if !cowork_experiment::plan::NAMES.contains(&args.name.as_str()) {
+        let known: Vec<&str> = cowork_experiment::plan::NAMES.iter().chain(&super::experiment_kitchen::NAMES).copied().collect();
+        bail!("unknown experiment `{}`; known: {}", args.name, known.join(", "));
+    }
     if args.trials == 0 {
         bail!("--trials must be at least 1");
     }
@@ -261,6 +174,21 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
                 format!(": {}", r.reason)
             }
         );
+        if !r.latency_ms.is_empty() {
+            let l: Vec<String> = r
+                .latency_ms
+                .iter()
+                .map(|(k, s)| format!("{k} {:.1}/{:.1}", s.median, s.p99))
+                .collect();
+            println!("  latency ms median/p99 (sim clock): {}", l.join(", "));
+        }
+        if !r.gesture_reactions.is_empty() {
+            print!(
+                "{}{}",
+                gestures::TABLE_HEADER,
+                gestures::table(r.seed, &r.gesture_reactions)
+            );
+        }
         results.push(r);
         // Write after every trial: an interrupted run keeps what was done.
         if let Some(path) = &args.json {
@@ -278,6 +206,19 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
         println!("report: {}", dir.join("index.html").display());
     }
     Ok(())
+}
+
+/// The runner's latency samples as statistics in ms, by name.
+fn latency_ms(l: &Latency) -> BTreeMap<String, Stats> {
+    [
+        ("depth_to_distances", &l.depth_to_distances),
+        ("distances_to_command", &l.distances_to_command),
+        ("skeleton_to_state", &l.skeleton_to_state),
+        ("state_to_command", &l.state_to_command),
+    ]
+    .into_iter()
+    .filter_map(|(k, v)| Stats::of(v.iter().map(|x| x * 1e3)).map(|s| (k.to_owned(), s)))
+    .collect()
 }
 
 /// `/motion/status` in words: `command 3 held: stale /fded/distances ...`.
@@ -343,6 +284,22 @@ pub fn report_trial(
             format!("{:.1}", r.approach_limited_s),
         ),
     ];
+    let mut row = row;
+    if !r.gesture_reactions.is_empty() {
+        let acted = r.gesture_reactions.iter().filter(|g| g.acted).count();
+        row.push((
+            "gestures acted on".into(),
+            format!("{acted}/{}", r.gesture_reactions.len()),
+        ));
+        row.push((
+            "release to hand (m)".into(),
+            r.releases
+                .iter()
+                .map(|x| format!("{} {:.3}", x.object, x.distance_to_hand_m))
+                .collect::<Vec<_>>()
+                .join(", "),
+        ));
+    }
     ReportTrial {
         title: title.to_owned(),
         row,
@@ -399,7 +356,15 @@ impl Heard {
 
 impl Inputs {
     /// Drains every subscription into `judge`; returns the newest status of the motion.
-    fn drain(&self, judge: &mut Judge, heard: &mut Heard, status: &mut Option<MotionStatus>) {
+    fn drain(
+        &self,
+        judge: &mut Judge,
+        seq: &mut Sequencer,
+        heard: &mut Heard,
+        status: &mut Option<MotionStatus>,
+        lat: &mut Latency,
+        now: f64,
+    ) {
         while let Some(m) = self.joints.take() {
             heard.joints = true;
             judge.on_joint_state(&m);
@@ -416,16 +381,24 @@ impl Inputs {
         while let Some(m) = self.distances.take() {
             heard.distances = true;
             judge.on_distances(&m);
+            lat.on_distances(m.header.stamp.to_secs_f64(), now);
         }
         while let Some(m) = self.human.take() {
             heard.human = true;
             judge.on_human_state(&m);
+            lat.on_state(now);
+            if m.present {
+                let (h, v) = (&m.hand_position, &m.hand_velocity);
+                seq.on_hand(m.header.stamp.to_secs_f64(), [h.x, h.y, h.z], [v.x, v.y, v.z]);
+            }
         }
         while let Some(m) = self.gestures.take() {
             judge.on_gesture(&m);
+            seq.on_gesture(m.header.stamp.to_secs_f64(), &m.label);
         }
         while let Some(m) = self.commands.take() {
             judge.on_command(&m);
+            lat.on_command(now);
         }
     }
 }
@@ -441,7 +414,7 @@ fn run_trial(
     let logs = args.logs.join(&tag);
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let domain = private_domain(k);
-    let mut graph = Graph { procs: Vec::new() };
+    let mut graph = cowork_graph::Graph::new(domain, &logs)?;
     let bin = |b: &str| args.bin_dir.join(b);
     let scene = exp.scene_path.display().to_string();
     let mut sim_args = vec![
@@ -484,9 +457,11 @@ fn run_trial(
         "--params".into(),
         args.observer_params.display().to_string(),
         "--use-sim-time".into(),
-        "--gestures".into(),
-        String::new(),
     ];
+    if !gestures::recognises_gestures(exp) {
+        // Stacking alone: a reach that looks like a `stop` must not hold the task.
+        obs_args.extend(["--gestures".into(), String::new()]);
+    }
     wall(&mut obs_args);
 
     // The runner's own node first, so that no early message of the graph is missed.
@@ -526,37 +501,19 @@ fn run_trial(
                 bag.display().to_string(),
             ];
             wall(&mut rec);
-            graph.spawn("recorder", &me, &rec, domain, &logs)?;
+            graph.spawn("recorder", &me, &rec)?;
         }
-        graph.spawn(
-            "human_observer",
-            &bin("human_observer"),
-            &obs_args,
-            domain,
-            &logs,
-        )?;
-        graph.spawn(
-            "ds_controller",
-            &bin("ds_controller"),
-            &ds_args,
-            domain,
-            &logs,
-        )?;
-        graph.spawn(
-            "fded_distance",
-            &bin("fded_distance"),
-            &fded_args,
-            domain,
-            &logs,
-        )?;
-        graph.spawn("lwr_sim", &bin("lwr_sim"), &sim_args, domain, &logs)?;
+        graph.spawn("human_observer", &bin("human_observer"), &obs_args)?;
+        graph.spawn("ds_controller", &bin("ds_controller"), &ds_args)?;
+        graph.spawn("fded_distance", &bin("fded_distance"), &fded_args)?;
+        graph.spawn("lwr_sim", &bin("lwr_sim"), &sim_args)?;
         Ok(())
     })();
     // Which processes ran (for the log reader, and for checking that none is left over).
     let pids: String = graph
-        .procs
+        .pids()
         .iter()
-        .map(|p| format!("{} {}\n", p.name, p.child.id()))
+        .map(|(name, pid)| format!("{name} {pid}\n"))
         .collect();
     std::fs::write(logs.join("pids.txt"), pids)
         .with_context(|| format!("writing {}", logs.join("pids.txt").display()))?;
@@ -572,6 +529,8 @@ fn run_trial(
     let mut heard = Heard::default();
     let mut status: Option<MotionStatus> = None;
     let mut outputs = Vec::new();
+    let mut releases = Vec::new();
+    let mut latency = Latency::default();
     let mut failure: Option<String> = started.err().map(|e| format!("graph did not start: {e:#}"));
     let startup_deadline = wall0 + cowork_ros::duration_s(args.startup_timeout);
     let mut t0: Option<f64> = None;
@@ -591,8 +550,10 @@ fn run_trial(
             failure = Some(format!("node died: {e}"));
             break;
         }
-        inputs.drain(&mut judge, &mut heard, &mut status);
         let now = node.now().to_secs_f64();
+        // Latency only once the graph is up (start-up queues are not latency).
+        let lat_now = if t0.is_some() { now } else { f64::NAN };
+        inputs.drain(&mut judge, &mut sequencer, &mut heard, &mut status, &mut latency, lat_now);
         if !node.clock_started() {
             if Instant::now() > startup_deadline {
                 failure = Some(format!(
@@ -647,6 +608,7 @@ fn run_trial(
                 pose.write_message(&meta, &mut skeleton);
                 judge.on_skeleton(&skeleton);
                 skeleton_pub.publish(skeleton.clone())?;
+                latency.on_skeleton(now);
             }
             next_person += 1;
         }
@@ -656,7 +618,12 @@ fn run_trial(
             for o in outputs.drain(..) {
                 match o {
                     Output::Motion(m) => motion_pub.publish(m)?,
-                    Output::Gripper(g) => gripper_pub.publish(RosString { data: g.into() })?,
+                    Output::Gripper(g) => {
+                        if g == "open" {
+                            gestures::note_release(&sequencer, &judge, exp, now, &mut releases);
+                        }
+                        gripper_pub.publish(RosString { data: g.into() })?
+                    }
                 }
             }
             bar.set_position(sequencer.finished().len() as u64);
@@ -694,7 +661,8 @@ fn run_trial(
     bar.finish_and_clear();
     // Last messages in flight, then stop everything.
     std::thread::sleep(Duration::from_millis(100));
-    inputs.drain(&mut judge, &mut heard, &mut status);
+    let now = node.now().to_secs_f64();
+    inputs.drain(&mut judge, &mut sequencer, &mut heard, &mut status, &mut latency, now);
     graph.stop();
     drop(node);
 
@@ -744,6 +712,13 @@ fn run_trial(
         }
     }
     let duration_s = t0.map_or(0.0, |s| (last_t - s).max(0.0));
+    let gesture_reactions = gestures::reactions(exp, &judge, &sequencer, t0, last_t, &releases);
+    if reason.is_empty() {
+        let bad = cowork_experiment::cooperation::failures(&gesture_reactions);
+        if !bad.is_empty() {
+            reason = format!("gestures not acted on: {}", bad.join("; "));
+        }
+    }
     let result = TrialResult {
         seed: exp.seed,
         success: reason.is_empty(),
@@ -770,6 +745,9 @@ fn run_trial(
         bag: bag.map(|b| b.display().to_string()),
         approach_limited_s: judge.approach_limited_s,
         approach_limited_links: judge.approach_limited_links.clone(),
+        gesture_reactions,
+        releases,
+        latency_ms: latency_ms(&latency),
     };
     Ok((result, judge.series))
 }

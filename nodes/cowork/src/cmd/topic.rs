@@ -1,4 +1,5 @@
-//! `cowork topic list|echo`: look at live topics over DDS without a ROS installation.
+//! `cowork topic list|echo|pub|hz|info` and `cowork node list`: look at the live graph over DDS
+//! without a ROS installation, as `ros2 topic` / `ros2 node` do.
 
 use std::io::Write as _;
 use std::time::{Duration, Instant};
@@ -33,6 +34,31 @@ pub enum TopicCommand {
         /// Subscribe best effort (matches any publisher; may drop messages).
         #[arg(long)]
         best_effort: bool,
+    },
+    /// Receive rate of a topic (any type), printed every second as `ros2 topic hz` does.
+    Hz {
+        /// Topic name, e.g. /joint_states.
+        topic: String,
+        /// Rate over the last N messages.
+        #[arg(long, default_value_t = 10_000)]
+        window: usize,
+        /// Stop after this many seconds (default: until Ctrl-C).
+        #[arg(long)]
+        duration: Option<f64>,
+        /// How long to wait for the topic to appear, s.
+        #[arg(long, default_value_t = 5.0)]
+        wait: f64,
+    },
+    /// Type, publishers and subscriptions of a topic; `-v`: each endpoint's node and QoS.
+    Info {
+        /// Topic name, e.g. /fded/distances.
+        topic: String,
+        /// List every endpoint with its node, GID and QoS.
+        #[arg(long, short = 'v')]
+        verbose: bool,
+        /// How long to listen for discovery, s.
+        #[arg(long, default_value_t = 2.0)]
+        wait: f64,
     },
     /// Publish a message given as JSON; fields left out keep their ROS defaults.
     Pub {
@@ -82,6 +108,8 @@ pub fn run(cmd: TopicCommand) -> Result<()> {
             with_message_type!(type_name.as_str(), T => echo::<T>(&mut node, &topic, &qos, count))
                 .with_context(|| format!("{topic}: type {type_name} is not one cowork knows"))?
         }
+        TopicCommand::Hz { topic, window, duration, wait } => hz(&topic, window, duration, wait),
+        TopicCommand::Info { topic, verbose, wait } => info(&topic, verbose, wait),
         TopicCommand::Pub { topic, type_name, json, count, rate, wait } => {
             if !(rate.is_finite() && rate > 0.0) {
                 bail!("--rate {rate}: must be a positive number of Hz");
@@ -183,4 +211,172 @@ fn echo<T: RosMessage>(node: &mut RosNode, topic: &str, qos: &qos::QosProfile, c
         }
     }
     Ok(())
+}
+
+/// The writers' type of `topic`, waiting up to `wait` s for discovery.
+fn writer_type(node: &RosNode, topic: &str, wait: f64) -> Result<String> {
+    let found = discover(node, wait, |ts| ts.iter().any(|t| t.name == topic))?;
+    let types = node.writer_type_names(topic);
+    match (types.as_slice(), found.into_iter().find(|t| t.name == topic)) {
+        ([one], _) => Ok(one.clone()),
+        ([], Some(t)) => Ok(t.type_name),
+        ([], None) => bail!("topic {topic} not seen within {wait} s (try `cowork topic list`)"),
+        (many, _) => bail!("{topic} has publishers of different types: {}", many.join(", ")),
+    }
+}
+
+/// Rate statistics of arrival times (s), as `ros2 topic hz` prints them.
+#[derive(Debug, Clone, PartialEq)]
+struct RateStats {
+    /// Messages per second over the window.
+    rate_hz: f64,
+    /// Shortest, longest gap and the gaps' standard deviation, s.
+    min_s: f64,
+    max_s: f64,
+    std_s: f64,
+    /// Gaps in the window.
+    window: usize,
+}
+
+fn rate_stats(arrivals: &std::collections::VecDeque<f64>) -> Option<RateStats> {
+    if arrivals.len() < 2 {
+        return None;
+    }
+    let gaps: Vec<f64> = arrivals.iter().zip(arrivals.iter().skip(1)).map(|(a, b)| b - a).collect();
+    let n = gaps.len() as f64;
+    let mean = gaps.iter().sum::<f64>() / n;
+    if !(mean > 0.0) {
+        return None;
+    }
+    let var = gaps.iter().map(|g| (g - mean).powi(2)).sum::<f64>() / n;
+    Some(RateStats {
+        rate_hz: 1.0 / mean,
+        min_s: gaps.iter().copied().fold(f64::INFINITY, f64::min),
+        max_s: gaps.iter().copied().fold(0.0, f64::max),
+        std_s: var.sqrt(),
+        window: gaps.len(),
+    })
+}
+
+fn hz(topic: &str, window: usize, duration: Option<f64>, wait: f64) -> Result<()> {
+    if window < 2 {
+        bail!("--window {window}: needs at least 2 messages");
+    }
+    if let Some(d) = duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration {d}: must be a positive number of seconds");
+    }
+    let mut node = RosNode::new(&format!("cowork_hz_{}", std::process::id()), &NodeConfig::default())?;
+    let type_name = writer_type(&node, topic, wait)?;
+    // Matches every writer (a reliable reader would not match a best-effort camera).
+    let qos = node.offered_qos(topic, 100).unwrap_or_else(qos::sensor_data);
+    let sub = node.raw_subscription(topic, &type_name, &qos)?;
+    let start = Instant::now();
+    let mut arrivals = std::collections::VecDeque::with_capacity(window.min(100_000));
+    let mut next_print = Instant::now() + Duration::from_secs(1);
+    let mut out = std::io::stdout().lock();
+    while !cowork_ros::shutdown::requested() && duration.is_none_or(|d| start.elapsed().as_secs_f64() < d) {
+        let mut got = false;
+        while let Some(sample) = sub.take() {
+            got = true;
+            arrivals.push_back(sample.receive_time_ns as f64 * 1e-9);
+            if arrivals.len() > window {
+                arrivals.pop_front();
+            }
+        }
+        if Instant::now() >= next_print {
+            next_print += Duration::from_secs(1);
+            let text = match rate_stats(&arrivals) {
+                Some(r) => format!(
+                    "average rate: {:.3}\n\tmin: {:.3}s max: {:.3}s std dev: {:.5}s window: {}",
+                    r.rate_hz, r.min_s, r.max_s, r.std_s, r.window
+                ),
+                None => format!("no new messages on {topic} [{type_name}]"),
+            };
+            match writeln!(out, "{text}").and_then(|()| out.flush()) {
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+                other => other?,
+            }
+        }
+        if !got {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+    }
+    Ok(())
+}
+
+fn info(topic: &str, verbose: bool, wait: f64) -> Result<()> {
+    let mut node = RosNode::new(&format!("cowork_info_{}", std::process::id()), &NodeConfig::default())?;
+    let mut watch = node.graph_watch()?;
+    let found = discover(&node, wait, |ts| ts.iter().any(|t| t.name == topic))?;
+    if !found.iter().any(|t| t.name == topic) {
+        bail!("topic {topic} not seen within {wait} s (try `cowork topic list`)");
+    }
+    // ros_discovery_info arrives with discovery; give the owners a moment more.
+    std::thread::sleep(Duration::from_millis(300));
+    let ends = node.topic_endpoints(topic, Some(&mut watch));
+    let mut types: Vec<&str> = ends.publishers.iter().chain(&ends.subscriptions).map(|e| e.type_name.as_str()).collect();
+    types.sort_unstable();
+    types.dedup();
+    println!("Type: {}", types.join(", "));
+    println!("Publisher count: {}", ends.publishers.len());
+    println!("Subscription count: {}", ends.subscriptions.len());
+    if verbose {
+        for (kind, list) in [("PUBLISHER", &ends.publishers), ("SUBSCRIPTION", &ends.subscriptions)] {
+            for e in list {
+                println!();
+                println!("Node name: {}", e.node.as_deref().unwrap_or("_NODE_NAME_UNKNOWN_"));
+                println!("Topic type: {}", e.type_name);
+                println!("Endpoint type: {kind}");
+                println!("GID: {}", e.gid);
+                println!("QoS profile:");
+                println!("  Reliability: {}", e.reliability);
+                println!("  History (Depth): {}", e.history);
+                println!("  Durability: {}", e.durability);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `cowork node list`: the ROS 2 nodes on the domain, one per line, as `ros2 node list`.
+pub fn node_list(wait: f64) -> Result<()> {
+    if !(wait.is_finite() && wait >= 0.0) {
+        bail!("--wait {wait}: must be a non-negative number of seconds");
+    }
+    cowork_ros::shutdown::install();
+    let own = format!("cowork_nodes_{}", std::process::id());
+    let mut node = RosNode::new(&own, &NodeConfig::default())?;
+    let mut watch = node.graph_watch()?;
+    let deadline = Instant::now() + cowork_ros::duration_s(wait);
+    while Instant::now() < deadline && !cowork_ros::shutdown::requested() {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let mut names: Vec<String> = watch.nodes().into_iter().map(|n| n.name).filter(|n| *n != format!("/{own}")).collect();
+    names.dedup();
+    for n in names {
+        println!("{n}");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rate_of_evenly_spaced_arrivals() {
+        let arrivals: std::collections::VecDeque<f64> = (0..11).map(|i| f64::from(i) * 0.1).collect();
+        let r = rate_stats(&arrivals).expect("stats");
+        assert!((r.rate_hz - 10.0).abs() < 1e-9, "{r:?}");
+        assert_eq!(r.window, 10);
+        assert!(r.std_s < 1e-9 && (r.min_s - 0.1).abs() < 1e-9 && (r.max_s - 0.1).abs() < 1e-9);
+    }
+
+    #[test]
+    fn no_rate_from_fewer_than_two_messages_or_one_instant() {
+        assert_eq!(rate_stats(&[1.0].into_iter().collect()), None);
+        assert_eq!(rate_stats(&[1.0, 1.0].into_iter().collect()), None);
+    }
 }

@@ -289,6 +289,18 @@ impl ControllerConfig {
             f.max_obstacle_speed >= 0.0,
             "must be ≥ 0 m/s",
         )?;
+        check(
+            "safety.scene_stop_distance",
+            f.scene_stop_distance,
+            f.scene_stop_distance > 0.0 && f.scene_stop_distance <= f.stop_distance,
+            "must be > 0 m and ≤ safety.stop_distance",
+        )?;
+        check(
+            "safety.scene_slow_distance",
+            f.scene_slow_distance,
+            f.scene_slow_distance > f.scene_stop_distance && f.scene_slow_distance <= f.slow_distance,
+            "must exceed safety.scene_stop_distance and be ≤ safety.slow_distance (m)",
+        )?;
         check("safety.damping", f.damping, f.damping >= 0.0, "must be ≥ 0")?;
         check(
             "safety.hand_radius",
@@ -345,6 +357,13 @@ pub struct Distances {
     pub count: usize,
     /// Entries by link index.
     pub links: [LinkDistance; MAX_LINKS],
+    /// `scene_object[i]`: link `i`'s closest obstacle point lies on a known object of the
+    /// task's scene (inside its shape at the pose the world reports, grown by a margin), not on
+    /// an unknown obstacle such as a person. The link damper keeps such links at its shorter
+    /// scene distances ([`crate::safety::SafetyConfig::scene_stop_distance`]); the modulation
+    /// and the null-space avoidance treat every obstacle alike. False when not known (fail
+    /// closed: the full damper distances).
+    pub scene_object: [bool; MAX_LINKS],
 }
 
 impl Distances {
@@ -353,6 +372,7 @@ impl Distances {
         stamp: f64::NEG_INFINITY,
         count: 0,
         links: [LinkDistance::NONE; MAX_LINKS],
+        scene_object: [false; MAX_LINKS],
     };
 
     /// A fresh set with no obstacle near any link.

@@ -25,6 +25,17 @@
 //! in), and the distance is first reduced by how far that obstacle travels while the data ages
 //! (`age · max(uᵀv_O, 0)`).
 //!
+//! **Known scene objects** (`Distances::scene_object`: the link's closest obstacle point lies
+//! on an object of the task's scene, at the pose the world reports) are kept at the shorter
+//! `scene_stop_distance` / `scene_slow_distance` instead. Why: the damper is for what the task
+//! does not know — a person's hand closing on the forearm. The scene's objects are where the
+//! teacher worked: pouring into the cup brings the forearm within 12 cm of the coffee jar
+//! beside it, and with the person distances (stop 10 cm, slow 30 cm) the damper held the
+//! forearm off the jar until the action timed out (`cowork_manager`'s pour, 2468 "approach
+//! limited" statuses, every one on the jar: `nodes/robot_manager/scripts/damper_census.py`).
+//! A link still never pushes into a known object (it stops at `scene_stop_distance`), and an
+//! unknown obstacle closer than the object is that link's closest point again, damped in full.
+//!
 //! Each violated constraint `jᵀq̇ ≥ b` (`j = J_lᵀu`) is met by the smallest joint-velocity change,
 //! `q̇ += j (b − jᵀq̇)/(jᵀj + λ²)`; the links are swept a few times (alternating projections onto
 //! the half-spaces). The motion along the obstacle surface is kept, only the approach is
@@ -52,6 +63,11 @@ pub struct SafetyConfig {
     pub approach_speed: f64,
     /// Retreat speed per metre inside `stop_distance` (1/s, ≥ 0).
     pub retreat_gain: f64,
+    /// `stop_distance` for a link whose closest obstacle is a known scene object (m, > 0,
+    /// ≤ `stop_distance`): the task works next to its objects; this keeps the link off them.
+    pub scene_stop_distance: f64,
+    /// `slow_distance` for a known scene object (m, > `scene_stop_distance`, ≤ `slow_distance`).
+    pub scene_slow_distance: f64,
     /// Largest obstacle approach speed the arm follows (m/s, ≥ 0): a person's hand moves at up
     /// to ~1.5 m/s; faster estimates are noise or a new obstacle.
     pub max_obstacle_speed: f64,
@@ -76,6 +92,8 @@ impl Default for SafetyConfig {
             enabled: true,
             stop_distance: 0.10,
             slow_distance: 0.30,
+            scene_stop_distance: 0.03,
+            scene_slow_distance: 0.10,
             approach_speed: 0.3,
             retreat_gain: 2.0,
             max_obstacle_speed: 1.5,
@@ -127,20 +145,29 @@ impl LinkSafety {
         &self.cfg
     }
 
-    /// Allowed approach speed (m/s; negative: required retreat) at effective distance `d` (m).
+    /// Allowed approach speed (m/s; negative: required retreat) at effective distance `d` (m)
+    /// to an unknown obstacle (a person).
     pub fn allowed_approach(&self, d: f64) -> f64 {
+        self.allowed_approach_to(d, false)
+    }
+
+    /// Allowed approach speed (m/s; negative: required retreat) at effective distance `d` (m),
+    /// to a known scene object (`scene`: the scene distances) or to anything else.
+    pub fn allowed_approach_to(&self, d: f64, scene: bool) -> f64 {
         let c = &self.cfg;
-        if d >= c.stop_distance {
-            c.approach_speed * ((d - c.stop_distance) / (c.slow_distance - c.stop_distance)).min(1.0)
+        let (stop, slow) = if scene { (c.scene_stop_distance, c.scene_slow_distance) } else { (c.stop_distance, c.slow_distance) };
+        if d >= stop {
+            c.approach_speed * ((d - stop) / (slow - stop)).min(1.0)
         } else {
-            -c.retreat_gain * (c.stop_distance - d)
+            -c.retreat_gain * (stop - d)
         }
     }
 
     /// Corrects `qdot` (rad/s) in place so that no link in `from..to` of `dist` approaches its
     /// obstacle faster than allowed; `tool` is the tool point (m, base frame), `age_s` the age
     /// of `dist` (s, ≥ 0), `poses` the forward kinematics at the current q. Links at or beyond
-    /// `slow_distance`, closest points within `hand_radius` of the tool (unless `from..to`
+    /// `slow_distance` (`scene_slow_distance` for a known scene object), closest points within
+    /// `hand_radius` of the tool (unless `from..to`
     /// includes the end-effector links on purpose: `hand` false), invalid entries and links the
     /// joints cannot move (zero Jacobian) are left alone.
     #[allow(clippy::too_many_arguments)]
@@ -188,7 +215,8 @@ impl LinkSafety {
             };
             let closing = u.dot(&o.obstacle_velocity).clamp(0.0, c.max_obstacle_speed);
             let d_eff = o.distance - closing * age;
-            if d_eff >= c.slow_distance {
+            let scene = dist.scene_object[l];
+            if d_eff >= if scene { c.scene_slow_distance } else { c.slow_distance } {
                 continue;
             }
             let in_link = poses.get(l).inverse_transform_point(&o.robot_point);
@@ -198,7 +226,7 @@ impl LinkSafety {
                 continue;
             }
             self.rows[n] = j;
-            self.bounds[n] = closing - self.allowed_approach(d_eff);
+            self.bounds[n] = closing - self.allowed_approach_to(d_eff, scene);
             self.dist[n] = d_eff;
             links[n] = l;
             n += 1;

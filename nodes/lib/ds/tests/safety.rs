@@ -22,7 +22,12 @@ struct Run {
 /// Sphere centre (m) and radius at time t (s).
 type Obstacle<'a> = &'a dyn Fn(f64) -> (Point3<f64>, f64, Vector3<f64>);
 
+/// `scene`: the obstacle is a known scene object (`Distances::scene_object`).
 fn run(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, seconds: f64, reach_y: f64) -> Run {
+    run_with(model, safety, obstacle, seconds, reach_y, false)
+}
+
+fn run_with(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, seconds: f64, reach_y: f64, scene: bool) -> Run {
     let points = common::link_points(model, 1);
     let q0 = JointVector::from_row_slice(&[0.0, 0.6, 0.0, -1.3, 0.0, 0.7, 0.0]);
     let x0 = common::tip_position(model, &q0);
@@ -51,6 +56,7 @@ fn run(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, seconds
             // Distances measured 33 ms ago (one camera frame), as fDED delivers them.
             input.distances = common::sphere_distances(&poses, &points, &c, rad, &v, t);
             input.distances.stamp = t - 0.033;
+            input.distances.scene_object = [scene; cowork_robot::MAX_LINKS];
         }
         ctl.step(&input, &mut out).expect("step");
         r.safety_steps += usize::from(out.diagnostics.safety.active);
@@ -86,6 +92,37 @@ fn forearm_holds_before_a_static_obstacle() {
     assert!(safe.safety_steps > 0);
     // Sampled link points (the damper sees the closest vertex of each link): a few mm of slack.
     assert!(safe.min_distance > stop - 0.01, "damper let the arm close to {} m", safe.min_distance);
+}
+
+/// The same sphere as a known scene object (the coffee jar beside the cup): the task works
+/// next to it, so the damper lets the forearm come to the scene stop distance — closer than to
+/// a person, never into it.
+#[test]
+fn forearm_comes_closer_to_a_known_scene_object_but_not_into_it() {
+    let model = common::lwr();
+    let free = run(&model, false, None, 4.0, 0.45);
+    let first = free.elbow_path[0];
+    let on_path = free.elbow_path.iter().find(|p| (*p - first).norm() >= 0.25).copied().expect("the elbow moves 0.25 m");
+    let c = Point3::from(on_path);
+    // Larger than the first test's sphere, so that eq. 5.13 alone comes within the scene
+    // stop distance.
+    let sphere = move |_t: f64| (c, 0.10, Vector3::zeros());
+    let blind = run(&model, false, Some(&sphere), 4.0, 0.45);
+    let person = run_with(&model, true, Some(&sphere), 4.0, 0.45, false);
+    let object = run_with(&model, true, Some(&sphere), 4.0, 0.45, true);
+    let s = ControllerConfig::default().safety;
+    eprintln!(
+        "static sphere (r 0.10 m) on the forearm's path: eq. 5.13 alone min {:.4} m; damper, as an unknown obstacle {:.4} m, \
+         as a scene object {:.4} m (stop distances {} / {} m, active {} / {} steps)",
+        blind.min_distance,
+        person.min_distance, object.min_distance, s.stop_distance, s.scene_stop_distance, person.safety_steps, object.safety_steps
+    );
+    assert!(blind.min_distance < s.scene_stop_distance, "must come close without the damper: {}", blind.min_distance);
+    // Sampled link points on a larger sphere: 1.5 cm of slack.
+    assert!(person.min_distance > s.stop_distance - 0.015, "{}", person.min_distance);
+    assert!(object.safety_steps > 0, "the damper still acts on a scene object");
+    assert!(object.min_distance > s.scene_stop_distance - 0.01, "pushed into the object: {} m", object.min_distance);
+    assert!(object.min_distance < s.stop_distance - 0.03, "held as far as from a person: {} m", object.min_distance);
 }
 
 /// A hand that reaches into the forearm at 1 m/s, holds inside the arm's path for 1 s, and

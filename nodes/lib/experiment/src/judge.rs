@@ -164,6 +164,9 @@ pub struct Judge {
     limited_since: Option<(f64, String)>,
     /// The series.
     pub series: Series,
+    /// Newest true right hand of the person last seen (simulated time s, middle of the hand,
+    /// base frame m).
+    pub right_hand: Option<(f64, Point3<f64>)>,
 }
 
 impl Judge {
@@ -188,6 +191,7 @@ impl Judge {
             approach_limited_links: BTreeMap::new(),
             limited_since: None,
             series: Series::default(),
+            right_hand: None,
             model,
         })
     }
@@ -237,6 +241,7 @@ impl Judge {
                 Obstacle::capsule(name, c.a, c.b, c.radius, Vector3::zeros(), Vector3::zeros())
             })
             .collect();
+        self.right_hand = Some((t, pose.position(cowork_people::Segment::RightHand)));
         self.people.insert(msg.person_id, (t, caps));
         self.now = self.now.max(t);
         self.evaluate(t);

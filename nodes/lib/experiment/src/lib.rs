@@ -15,6 +15,7 @@
 mod error;
 
 pub mod bag;
+pub mod cooperation;
 pub mod judge;
 pub mod plan;
 pub mod report;

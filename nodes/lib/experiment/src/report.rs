@@ -243,23 +243,38 @@ pub fn plot_trial(dir: &Path, stem: &str, s: &Series) -> Result<Vec<String>> {
         &[],
         Some(0.0),
     )?;
-    let gestures: Vec<(f64, f64)> = s.gestures.iter().map(|g| (g.0, 3.5)).collect();
+    // One series per gesture label: a spike (3.4 → 3.8) at each recognition, in its colour.
+    let mut labels: Vec<&str> = Vec::new();
+    for g in &s.gestures {
+        if !labels.contains(&g.1.as_str()) {
+            labels.push(&g.1);
+        }
+    }
+    let palette = [green, RGBColor(214, 39, 40), RGBColor(148, 103, 189), orange];
+    let names: Vec<String> = labels.iter().map(|l| format!("gesture: {l}")).collect();
+    let mut lines = vec![Line {
+        name: "mode",
+        points: steps(s.mode.iter().map(|&(t, m)| (t, mode_value(m)))),
+        color: blue,
+    }];
+    for (k, label) in labels.iter().enumerate() {
+        let points = s
+            .gestures
+            .iter()
+            .filter(|g| g.1 == *label)
+            .flat_map(|g| [(g.0 - 0.05, 3.4), (g.0, 3.8), (g.0 + 0.05, 3.4)])
+            .collect();
+        lines.push(Line {
+            name: &names[k],
+            points,
+            color: palette[k % palette.len()],
+        });
+    }
     plot(
         &out("mode"),
-        "Human observer mode (0 nobody, 1 far, 2 interaction, 3 stopped); gestures at 3.5",
+        "Human observer mode (0 nobody, 1 far, 2 interaction, 3 stopped); gestures: spikes",
         "mode",
-        &[
-            Line {
-                name: "mode",
-                points: steps(s.mode.iter().map(|&(t, m)| (t, mode_value(m)))),
-                color: blue,
-            },
-            Line {
-                name: "gesture recognised",
-                points: gestures,
-                color: green,
-            },
-        ],
+        &lines,
         &[],
         Some(0.0),
     )?;
@@ -343,6 +358,13 @@ pub fn write_report(dir: &Path, title: &str, trials: &[ReportTrial]) -> Result<(
             let _ = writeln!(html, "<img src=\"{f}\" alt=\"{f}\">");
         }
     }
+    // Marks how many plots the browser could load (read by the cross-check's headless
+    // Chromium screenshot check, tests/crosscheck/check_report.sh; harmless elsewhere).
+    html.push_str(
+        "<script>window.addEventListener('load',function(){var i=document.images,n=0;\
+         for(var k=0;k<i.length;k++){if(i[k].complete&&i[k].naturalWidth>0)n++;}\
+         document.body.setAttribute('data-images-loaded',n+'/'+i.length);});</script>\n",
+    );
     html.push_str("</body></html>\n");
     let index = dir.join("index.html");
     std::fs::write(&index, html).map_err(|e| report_err(&index, e))

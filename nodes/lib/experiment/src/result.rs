@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use crate::cooperation::{GestureReaction, Release};
 use crate::judge::{Approach, PlacementResult, Stats, Subtask, THESIS_MIN_DISTANCE_M};
 use crate::plan::Variant;
 
@@ -63,6 +64,17 @@ pub struct TrialResult {
     /// … per link (s).
     #[serde(default)]
     pub approach_limited_links: BTreeMap<String, f64>,
+    /// `gestures-hri`: the robot's reaction to every gesture (recognised or performed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gesture_reactions: Vec<GestureReaction>,
+    /// `gestures-hri`: where handed-over objects were released.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub releases: Vec<Release>,
+    /// Latency in the graph seen by the runner on the simulated clock, ms
+    /// ([`crate::cooperation::Latency`]): `depth_to_distances`, `distances_to_command`,
+    /// `skeleton_to_state`, `state_to_command`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub latency_ms: BTreeMap<String, Stats>,
 }
 
 /// Over all trials.

@@ -3,7 +3,7 @@
 //! messages and publishes what it returns.
 
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion};
-use cowork_msgs::msg::{MotionCommand, MotionStatus, WorldState};
+use cowork_msgs::msg::{Gesture, MotionCommand, MotionStatus, WorldState};
 use cowork_msgs::std_msgs::Header;
 
 use crate::plan::Step;
@@ -33,6 +33,29 @@ pub enum Progress {
 const RESEND_AFTER_S: f64 = 1.0;
 /// A gripper step whose effect is not seen in `/lwr/world` within this time fails (s).
 const GRIP_TIMEOUT_S: f64 = 1.0;
+/// A handover goal is re-sent when the observed hand has moved more than this from the hand
+/// position of the goal in force (m).
+pub const HANDOVER_RETARGET_M: f64 = 0.02;
+/// The hand is aimed at only while it moves slower than this (m/s, the observer's filtered
+/// hand velocity): a hand held out, not one on its way.
+pub const HANDOVER_HAND_STILL_M_S: f64 = 0.15;
+/// A hand position older than this (s, simulated) is not used for a handover goal: the step
+/// waits for a fresh `/human/state` (fail closed: never aim at where a hand used to be).
+pub const HANDOVER_HAND_MAX_AGE_S: f64 = 0.3;
+
+/// How one [`Step::Handover`] went: when it was commanded, and where the hand was.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandoverLog {
+    /// The object handed over.
+    pub object: String,
+    /// Time of the `handover_right` gesture it acted on (s, simulated).
+    pub gesture_t: f64,
+    /// Time the first motion towards the hand was sent (s).
+    pub commanded_t: f64,
+    /// Goals sent (hand + offset, base frame, m), with their times: the first and every
+    /// re-target.
+    pub goals: Vec<(f64, [f64; 3])>,
+}
 
 /// Step-by-step executor of a task script.
 #[derive(Debug, Clone)]
@@ -49,6 +72,16 @@ pub struct Sequencer {
     acknowledged: bool,
     /// (step index, label, start s, end s) of every finished step.
     finished: Vec<(usize, String, f64, f64)>,
+    /// Recognised gestures (time s, label), in order of arrival.
+    gestures: Vec<(f64, String)>,
+    /// Gestures before this index have been used by a wait or a handover.
+    gestures_used: usize,
+    /// Newest observed right hand (time s, position m and velocity m/s, base frame).
+    hand: Option<(f64, [f64; 3], [f64; 3])>,
+    /// Goal end-effector avoidance is off for (the running handover's hand + offset).
+    handover_goal: Option<[f64; 3]>,
+    /// Every handover so far.
+    handovers: Vec<HandoverLog>,
 }
 
 impl Sequencer {
@@ -62,7 +95,51 @@ impl Sequencer {
             id: 0,
             acknowledged: false,
             finished: Vec::new(),
+            gestures: Vec::new(),
+            gestures_used: 0,
+            hand: None,
+            handover_goal: None,
+            handovers: Vec::new(),
         }
+    }
+
+    /// A gesture recognised at `t` (s, simulated; `/human/gesture`).
+    pub fn on_gesture(&mut self, t: f64, label: &str) {
+        self.gestures.push((t, label.to_owned()));
+    }
+
+    /// The observed right hand at `t` (s; `/human/state` hand position, m, and velocity, m/s,
+    /// base frame). Non-finite values are ignored.
+    pub fn on_hand(&mut self, t: f64, position: [f64; 3], velocity: [f64; 3]) {
+        if position.iter().chain(&velocity).all(|v| v.is_finite()) {
+            self.hand = Some((t, position, velocity));
+        }
+    }
+
+    /// The goal a handover may aim at now: a fresh, still hand + `offset` within `radius` of
+    /// `centre`.
+    fn hand_goal(&self, t: f64, offset: &[f64; 3], centre: &[f64; 3], radius: f64) -> Option<[f64; 3]> {
+        let (s, p, v) = self.hand?;
+        let goal = add(p, *offset);
+        (t - s <= HANDOVER_HAND_MAX_AGE_S
+            && dist(&v, &[0.0; 3]) < HANDOVER_HAND_STILL_M_S
+            && dist(&goal, centre) <= radius)
+            .then_some(goal)
+    }
+
+    /// The handovers done or running, in order.
+    pub fn handovers(&self) -> &[HandoverLog] {
+        &self.handovers
+    }
+
+    /// Takes the first unused gesture `label`: its time.
+    fn take_gesture(&mut self, label: &str) -> Option<f64> {
+        let k = self.gestures[self.gestures_used..]
+            .iter()
+            .position(|g| g.1 == label)?;
+        let t = self.gestures[self.gestures_used + k].0;
+        self.gestures_used += k + 1;
+        Some(t)
     }
 
     /// Label of step `i`.
@@ -77,6 +154,8 @@ impl Sequencer {
                 close: false,
                 object,
             } => format!("release {object}"),
+            Step::AwaitGesture { label } => format!("wait for {label}"),
+            Step::Handover { object, .. } => format!("hand {object} over"),
         }
     }
 
@@ -101,6 +180,7 @@ impl Sequencer {
     }
 
     fn motion(&self, t: f64, goal: &[f64; 3], speed: f64, label: &str) -> MotionCommand {
+        let end_effector_avoidance_off = self.handover_goal.is_some_and(|g| g == *goal);
         MotionCommand {
             header: Header {
                 stamp: cowork_msgs::builtin_interfaces::Time::from_secs_f64(t),
@@ -126,6 +206,7 @@ impl Sequencer {
             },
             nominal_speed: speed,
             hold_orientation: true,
+            end_effector_avoidance_off,
         }
     }
 
@@ -154,6 +235,11 @@ impl Sequencer {
                     }
                     Step::Grip { close, .. } => {
                         out.push(Output::Gripper(if *close { "close" } else { "open" }))
+                    }
+                    // Issued below, once the gesture and a fresh hand are there.
+                    Step::AwaitGesture { .. } | Step::Handover { .. } => {
+                        self.handover_goal = None;
+                        continue;
                     }
                 }
                 return Progress::Running;
@@ -197,6 +283,83 @@ impl Sequencer {
                     }
                     seen
                 }
+                Step::AwaitGesture { label } => self.take_gesture(label).is_some(),
+                Step::Handover {
+                    object,
+                    offset,
+                    speed,
+                    reach_centre,
+                    reach_radius,
+                } => {
+                    if let Some(w) = world
+                        && w.held_object != *object
+                    {
+                        return Progress::Failed(format!(
+                            "step {} ({label}): {object} is not held (holding {:?})",
+                            self.index + 1,
+                            w.held_object
+                        ));
+                    }
+                    let running = self
+                        .handovers
+                        .last()
+                        .is_some_and(|h| h.commanded_t >= start && h.object == *object);
+                    if !running {
+                        // Not commanded yet: a handover gesture (already seen or new) and a
+                        // fresh hand.
+                        let target = self.hand_goal(t, offset, reach_centre, *reach_radius);
+                        let gesture_t = self.gestures[self.gestures_used..]
+                            .iter()
+                            .find(|g| g.1 == Gesture::LABEL_HANDOVER_RIGHT)
+                            .map(|g| g.0);
+                        if let (Some(gt), Some(goal)) = (gesture_t, target) {
+                            self.take_gesture(Gesture::LABEL_HANDOVER_RIGHT);
+                            self.handovers.push(HandoverLog {
+                                object: object.clone(),
+                                gesture_t: gt,
+                                commanded_t: t,
+                                goals: vec![(t, goal)],
+                            });
+                            self.send_handover(t, goal, *speed, &label, out);
+                        }
+                        false
+                    } else {
+                        let mine = status.filter(|s| s.command_id == self.id);
+                        if let Some(s) = mine {
+                            self.acknowledged = true;
+                            if s.state == MotionStatus::STATE_ABORTED {
+                                return Progress::Failed(format!(
+                                    "step {} ({label}): ds_controller aborted the motion: {}",
+                                    self.index + 1,
+                                    s.reason
+                                ));
+                            }
+                        }
+                        let goal = self.handover_goal.unwrap_or_default();
+                        // Follow the hand (goal adaptation, eq. 5.2) while it moves.
+                        let target = self.hand_goal(t, offset, reach_centre, *reach_radius);
+                        if let Some(g) = target.filter(|g| dist(g, &goal) > HANDOVER_RETARGET_M) {
+                            if let Some(h) = self.handovers.last_mut() {
+                                h.goals.push((t, g));
+                            }
+                            self.send_handover(t, g, *speed, &label, out);
+                            false
+                        } else {
+                            if !self.acknowledged && t - self.sent >= RESEND_AFTER_S {
+                                self.sent = t;
+                                out.push(Output::Motion(self.motion(t, &goal, *speed, &label)));
+                            }
+                            // Arrived, and the hand is still under the block (a fresh
+                            // observation near the goal): never release into thin air.
+                            let hand_there = self.hand.is_some_and(|h| {
+                                t - h.0 <= HANDOVER_HAND_MAX_AGE_S
+                                    && dist(&add(h.1, *offset), &goal) <= 2.0 * HANDOVER_RETARGET_M
+                            });
+                            mine.is_some_and(|s| s.state == MotionStatus::STATE_CONVERGED)
+                                && hand_there
+                        }
+                    }
+                }
             };
             if !done {
                 return Progress::Running;
@@ -204,6 +367,24 @@ impl Sequencer {
             self.finished.push((self.index, label, start, t));
             self.index += 1;
             self.started = None;
+            self.handover_goal = None;
         }
     }
+
+    /// A new handover command towards `goal` (end-effector avoidance off).
+    fn send_handover(&mut self, t: f64, goal: [f64; 3], speed: f64, label: &str, out: &mut Vec<Output>) {
+        self.id += 1;
+        self.sent = t;
+        self.acknowledged = false;
+        self.handover_goal = Some(goal);
+        out.push(Output::Motion(self.motion(t, &goal, speed, label)));
+    }
+}
+
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }

@@ -356,3 +356,192 @@ fn report_writes_pngs_and_an_index() {
         );
     }
 }
+
+#[test]
+fn gestures_hri_script_waits_for_come_and_hands_block1_over() {
+    let a = build("gestures-hri", &root(), &options(2)).unwrap();
+    assert!(
+        matches!(&a.steps[0], Step::AwaitGesture { label } if label == "come"),
+        "{:?}",
+        a.steps[0]
+    );
+    // above, down, grasp, lift block1; hand it over; release; block2's eight steps onto g3.
+    assert!(matches!(&a.steps[3], Step::Grip { close: true, object } if object == "block1"));
+    assert!(
+        matches!(&a.steps[5], Step::Handover { object, offset, .. } if object == "block1" && (offset[2] - 0.05).abs() < 1e-12)
+    );
+    assert!(matches!(&a.steps[6], Step::Grip { close: false, object } if object == "block1"));
+    assert_eq!(a.steps.len(), 7 + 8);
+    assert_eq!(a.placements.len(), 1);
+    assert_eq!(a.placements[0].object, "block2");
+    // The person performs come, stop, come, handover right, in that order.
+    let performed: Vec<String> = cowork_experiment::cooperation::performed(&a.people)
+        .into_iter()
+        .map(|p| p.label)
+        .collect();
+    assert_eq!(performed, ["come", "stop", "come", "handover_right"]);
+    let e = build(
+        "gestures-hri",
+        &root(),
+        &Options {
+            distance: DistanceMethod::Flacco,
+            ..options(1)
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("stacking-hri only"), "{e}");
+}
+
+fn hand_world(held: &str) -> WorldState {
+    WorldState {
+        gripper_state: WorldState::GRIPPER_CLOSED,
+        held_object: held.into(),
+        ..WorldState::default()
+    }
+}
+
+#[test]
+fn sequencer_waits_for_gestures_and_follows_the_hand_with_end_effector_avoidance_off() {
+    let steps = vec![
+        Step::AwaitGesture {
+            label: "come".into(),
+        },
+        Step::Handover {
+            object: "block1".into(),
+            offset: [0.0, 0.0, 0.05],
+            speed: 0.3,
+            reach_centre: [0.0, 0.0, 0.31],
+            reach_radius: 0.9,
+        },
+        Step::Move {
+            label: "next".into(),
+            goal: [0.5, 0.0, 0.3],
+            speed: 0.3,
+        },
+    ];
+    let mut s = Sequencer::new(steps);
+    let mut out = Vec::new();
+    let w = hand_world("block1");
+    // Nothing before `come` (a `stop` is not a `come`).
+    s.on_gesture(0.5, "stop");
+    assert_eq!(s.update(1.0, None, Some(&w), &mut out), Progress::Running);
+    assert!(out.is_empty(), "{out:?}");
+    s.on_gesture(1.5, "come");
+    // come → the handover step, which waits for its gesture and a fresh hand.
+    const STILL: [f64; 3] = [0.0; 3];
+    s.on_hand(1.9, [0.3, -0.6, 0.2], STILL);
+    assert_eq!(s.update(2.0, None, Some(&w), &mut out), Progress::Running);
+    assert!(out.is_empty(), "{out:?}");
+    s.on_gesture(2.5, "handover_right");
+    // A hand 0.5 s old is not aimed at.
+    s.update(2.6, None, Some(&w), &mut out);
+    assert!(out.is_empty(), "stale hand: {out:?}");
+    // A hand on its way (0.5 m/s) or out of reach (1.2 m away) is not aimed at either.
+    s.on_hand(2.62, [0.3, -0.6, 0.2], [0.5, 0.0, 0.0]);
+    s.update(2.63, None, Some(&w), &mut out);
+    s.on_hand(2.64, [0.3, -1.2, 0.2], STILL);
+    s.update(2.65, None, Some(&w), &mut out);
+    assert!(out.is_empty(), "moving / unreachable hand: {out:?}");
+    s.on_hand(2.65, [0.3, -0.6, 0.2], STILL);
+    s.update(2.7, None, Some(&w), &mut out);
+    let Some(Output::Motion(m)) = out.pop() else {
+        panic!("handover not commanded")
+    };
+    assert!(m.end_effector_avoidance_off);
+    assert!((m.goal.position.z - 0.25).abs() < 1e-12 && (m.goal.position.y + 0.6).abs() < 1e-12);
+    let first = m.id;
+    // The hand moves 1 cm: same goal; 5 cm: a new goal (new id), still avoidance off.
+    s.on_hand(2.8, [0.31, -0.6, 0.2], STILL);
+    s.update(2.8, Some(&status(first, MotionStatus::STATE_RUNNING)), Some(&w), &mut out);
+    assert!(out.is_empty(), "{out:?}");
+    s.on_hand(2.9, [0.35, -0.6, 0.2], STILL);
+    s.update(2.9, Some(&status(first, MotionStatus::STATE_RUNNING)), Some(&w), &mut out);
+    let Some(Output::Motion(m2)) = out.pop() else {
+        panic!("no re-target")
+    };
+    assert!(m2.id > first && m2.end_effector_avoidance_off);
+    assert!((m2.goal.position.x - 0.35).abs() < 1e-12);
+    // Converged on the old id is not done; on the new one it is, and the next move has
+    // end-effector avoidance back on.
+    s.update(3.0, Some(&status(first, MotionStatus::STATE_CONVERGED)), Some(&w), &mut out);
+    assert!(out.is_empty());
+    // Converged, but the newest hand is stale (it went out of view): no release yet.
+    s.update(3.4, Some(&status(m2.id, MotionStatus::STATE_CONVERGED)), Some(&w), &mut out);
+    assert!(out.is_empty(), "{out:?}");
+    s.on_hand(3.45, [0.35, -0.6, 0.2], STILL);
+    s.update(3.5, Some(&status(m2.id, MotionStatus::STATE_CONVERGED)), Some(&w), &mut out);
+    let Some(Output::Motion(m3)) = out.pop() else {
+        panic!("next step not sent")
+    };
+    assert!(!m3.end_effector_avoidance_off && m3.label == "next");
+    let h = &s.handovers()[0];
+    assert_eq!((h.gesture_t, h.commanded_t, h.goals.len()), (2.5, 2.7, 2));
+    // A handover of something not held fails, naming it.
+    let mut t = Sequencer::new(vec![Step::Handover {
+        object: "block1".into(),
+        offset: [0.0; 3],
+        speed: 0.3,
+        reach_centre: [0.0; 3],
+        reach_radius: 1.0,
+    }]);
+    let p = t.update(0.0, None, Some(&hand_world("block2")), &mut out);
+    assert!(
+        matches!(&p, Progress::Failed(r) if r.contains("block1 is not held")),
+        "{p:?}"
+    );
+}
+
+#[test]
+fn gesture_reactions_are_judged_from_the_tool_speed_and_the_release() {
+    use cowork_experiment::cooperation::{Performed, Release, failures, reactions};
+    use cowork_experiment::sequencer::HandoverLog;
+    let mut series = cowork_experiment::Series::default();
+    // Tool: moving 0.1 m/s, stop recognised at 10 s: at rest from 10.3 s; come at 14 s:
+    // moving again from 14.4 s.
+    for k in 0..400 {
+        let t = 5.0 + 0.05 * f64::from(k);
+        let v = if (10.3..14.4).contains(&t) { 0.001 } else { 0.1 };
+        series.tool_speed.push((t, v));
+    }
+    series.gestures = vec![
+        (10.0, "stop".into()),
+        (14.0, "come".into()),
+        (18.0, "handover_right".into()),
+    ];
+    let performed = [
+        Performed { label: "stop".into(), start_s: 7.0, end_s: 9.6 },
+        Performed { label: "come".into(), start_s: 11.0, end_s: 13.7 },
+        Performed { label: "handover_right".into(), start_s: 15.0, end_s: 17.8 },
+        Performed { label: "come".into(), start_s: 1.0, end_s: 3.0 },
+    ];
+    let handovers = [HandoverLog {
+        object: "block1".into(),
+        gesture_t: 18.0,
+        commanded_t: 18.2,
+        goals: vec![],
+    }];
+    let release = |d: f64| Release {
+        object: "block1".into(),
+        t: 24.0,
+        distance_to_hand_m: d,
+        hand: [0.0; 3],
+        object_centre: [0.0; 3],
+    };
+    let r = reactions(&series, 0.0, 25.0, &performed, &handovers, &[release(0.03)]);
+    assert_eq!(r.len(), 4, "{r:?}");
+    assert!(r[0].acted && (r[0].reaction_s.unwrap() - 0.3).abs() < 0.06, "{:?}", r[0]);
+    assert!(r[1].acted && (r[1].reaction_s.unwrap() - 0.4).abs() < 0.06, "{:?}", r[1]);
+    assert!(r[2].acted && (r[2].reaction_s.unwrap() - 0.2).abs() < 1e-9 && r[2].release_distance_m == Some(0.03));
+    // The first come was performed but never recognised: a failure.
+    assert!(!r[3].acted && r[3].recognised_s.is_none());
+    let f = failures(&r);
+    assert_eq!(f.len(), 1, "{f:?}");
+    // Released 8 cm from the hand: not acted on. A robot that kept moving after the stop: not.
+    let r = reactions(&series, 0.0, 25.0, &performed[..3], &handovers, &[release(0.08)]);
+    assert!(!r[2].acted && r[2].note.contains("0.080"), "{:?}", r[2]);
+    for p in series.tool_speed.iter_mut().filter(|p| (12.0..13.0).contains(&p.0)) {
+        p.1 = 0.05;
+    }
+    let r = reactions(&series, 0.0, 25.0, &performed[..3], &handovers, &[release(0.03)]);
+    assert!(!r[0].acted && r[0].note.contains("moved"), "{:?}", r[0]);
+}

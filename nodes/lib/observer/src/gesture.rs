@@ -159,9 +159,8 @@ impl GestureModel {
         self.validate(None)?;
         let io = |source| ObserverError::Io { path: path.to_path_buf(), source };
         let text = serde_json::to_string(self).map_err(|e| bad_model(None, "", e.to_string()))?;
-        let tmp = path.with_extension("json.tmp");
-        std::fs::write(&tmp, text).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        // Learned data: temporary file, fsync, rename, directory fsync (never half a model).
+        cowork_store::write_atomic(path, text.as_bytes()).map_err(io)
     }
 }
 

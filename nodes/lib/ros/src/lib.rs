@@ -7,6 +7,8 @@
 //!   name comes from the message trait, so it can never drift from the struct;
 //! - the QoS of every topic of the graph ([`qos`]);
 //! - [`params::load`], the loader of ROS 2-shaped YAML parameter files;
+//! - [`graph`]: the nodes of the domain and a topic's publishers / subscriptions with their QoS
+//!   (`cowork node list`, `cowork topic info`);
 //! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop;
 //! - [`raw`]: untyped publishers / subscriptions of serialised CDR payloads named only by their
 //!   type string (bag record and replay of types we do not know).
@@ -21,6 +23,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod graph;
 mod node;
 pub use node::{discovery_on_all_networks, domain_id_from_env};
 pub mod params;

@@ -241,7 +241,7 @@ fn is_client_internal(topic: &TopicInfo) -> bool {
 }
 
 /// `rt/joint_states` → `/joint_states`; non-topic DDS names (services, discovery) → None.
-fn ros_topic_name(dds: &str) -> Option<String> {
+pub(crate) fn ros_topic_name(dds: &str) -> Option<String> {
     dds.strip_prefix("rt/").map(|rest| format!("/{rest}"))
 }
 

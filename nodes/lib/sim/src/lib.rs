@@ -32,4 +32,4 @@ mod simulator;
 pub use error::{CommandError, Result, SimError};
 pub use params::SimParams;
 pub use scene::{Camera, Pose, Scene, SceneObject, Shape};
-pub use simulator::{GripperState, ObjectState, Simulator, Wrench};
+pub use simulator::{FrameEdge, GripperState, ObjectState, Simulator, Wrench};

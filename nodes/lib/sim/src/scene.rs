@@ -283,6 +283,20 @@ impl Shape {
             Shape::Sphere { radius } => (Box::new(Ball::new(radius)), Isometry3::identity()),
         }
     }
+
+    /// Whether `p` (m, in the shape's own frame: centred, cylinder along z) lies inside the
+    /// shape grown by `margin` (m, ≥ 0) on every side. Boxes and cylinders are grown as boxes
+    /// and cylinders (corners not rounded): a conservative test for "this point belongs to the
+    /// object". Cost: a few flops.
+    pub fn contains_grown(&self, p: &Point3<f64>, margin: f64) -> bool {
+        match *self {
+            Shape::Box { size } => (0..3).all(|i| p[i].abs() <= size[i] / 2.0 + margin),
+            Shape::Cylinder { radius, height } => {
+                p.x.hypot(p.y) <= radius + margin && p.z.abs() <= height / 2.0 + margin
+            }
+            Shape::Sphere { radius } => p.coords.norm() <= radius + margin,
+        }
+    }
 }
 
 fn finite(place: &str, field: &str, v: f64) -> Result<()> {

@@ -10,6 +10,18 @@ use crate::error::{CommandError, Result, SimError};
 use crate::params::SimParams;
 use crate::scene::{Scene, Shape};
 
+
+/// One edge of the frame tree ([`Simulator::frame_tree`]): `child`'s pose in `parent`'s frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameEdge<'a> {
+    /// Parent frame (a link name); `None` for the robot base frame.
+    pub parent: Option<&'a str>,
+    /// Child frame: a link or an object name.
+    pub child: &'a str,
+    /// `child` in `parent`'s frame (m, rad).
+    pub pose: Isometry3<f64>,
+}
+
 /// A released object sunk at most this far into another one (m) is put on top of it.
 const SUPPORT_TOLERANCE_M: f64 = 0.02;
 
@@ -341,6 +353,20 @@ impl Simulator {
     /// Pose of the tool (tip) link, base frame.
     pub fn tool_pose(&self) -> Isometry3<f64> {
         *self.poses.get(self.model.tip_link())
+    }
+
+    /// The frame tree at the current state, as `robot_state_publisher` + object frames: every
+    /// link but the base in its parent link's frame (serial chain, base first), then every
+    /// object in the base frame. A `parent` of `None` is the base frame.
+    pub fn frame_tree(&self) -> impl Iterator<Item = FrameEdge<'_>> {
+        let names = self.model.link_names();
+        let links = (1..self.poses.len()).map(move |i| FrameEdge {
+            parent: (i > 1).then(|| names[i - 1].as_str()),
+            child: names[i].as_str(),
+            pose: self.poses.get(i - 1).inv_mul(self.poses.get(i)),
+        });
+        let objects = self.objects.iter().map(|o| FrameEdge { parent: None, child: o.name.as_str(), pose: o.pose });
+        links.chain(objects)
     }
 
     /// Scene objects with their current poses.

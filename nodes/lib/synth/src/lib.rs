@@ -33,4 +33,4 @@ pub use depth::DEPTH_ENCODING;
 pub use error::{Result, SynthError};
 pub use plan::{CartesianPath, PathSample, Teacher};
 pub use replay::{Applied, ReplaySummary, TeachingInput, apply_input, replay_teaching};
-pub use scenario::{Scenario, SynthOptions, SynthSummary, load_simulator, synthesize};
+pub use scenario::{Scenario, SynthOptions, SynthSummary, continue_from, load_simulator, synthesize};

@@ -15,7 +15,7 @@ use cowork_msgs::geometry_msgs::{Vector3 as RosVector3, Wrench as RosWrench, Wre
 use cowork_msgs::std_msgs::{Header, String as RosString};
 use cowork_sim::{Shape, Simulator};
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 
@@ -116,6 +116,63 @@ pub const POUR: Demonstration = Demonstration {
     carry_via: None,
 };
 
+/// How the scripted teacher performs a demonstration: pace, path and grasp. The default is
+/// the bundled teacher exactly (the bundled bags are written with it); [`TeacherStyle::from_seed`]
+/// draws another teacher per seed, as different people demonstrate the same subtask.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TeacherStyle {
+    /// Multiplies every segment's duration (> 1: slower).
+    pub pace: f64,
+    /// Tool point above the object's top at the grasp, m (where the object is grasped; within
+    /// the gripper's 5 cm reach).
+    pub grasp_above_m: f64,
+    /// Height of the approach point above the grasp, m.
+    pub approach_height_m: f64,
+    /// Lift above the grasp after closing the gripper, m.
+    pub lift_m: f64,
+    /// Height above the pouring pose the teacher comes down from (pour and shake), m.
+    pub pre_pour_height_m: f64,
+    /// Offset of the place from the demonstration's `place_xy` (x, y), m (pour and shake; a
+    /// stirring demonstration keeps its place, next to the coffee jar's).
+    pub place_offset_m: [f64; 2],
+}
+
+impl Default for TeacherStyle {
+    fn default() -> Self {
+        Self {
+            pace: 1.0,
+            grasp_above_m: 0.02,
+            approach_height_m: 0.12,
+            lift_m: 0.20,
+            pre_pour_height_m: 0.10,
+            place_offset_m: [0.0, 0.0],
+        }
+    }
+}
+
+impl TeacherStyle {
+    /// A teacher drawn from `seed` for `demo`: pace ×0.85–1.25, grasp 1–3 cm over the top,
+    /// approach from 12–16 cm, lift 18–24 cm, pour from 8–13 cm above, place ±1.5 cm. The
+    /// ranges keep each path outside the other objects' proximity spheres, so every
+    /// demonstration still segments into its nine actions.
+    pub fn from_seed(seed: u64, demo: &Demonstration) -> Self {
+        let tag = demo.scenario.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3));
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ tag);
+        let mut style = Self {
+            pace: rng.random_range(0.85..1.25),
+            grasp_above_m: rng.random_range(0.01..0.03),
+            approach_height_m: rng.random_range(0.12..0.16),
+            lift_m: rng.random_range(0.18..0.24),
+            pre_pour_height_m: rng.random_range(0.08..0.13),
+            place_offset_m: [rng.random_range(-0.015..0.015), rng.random_range(-0.015..0.015)],
+        };
+        if matches!(demo.usage, Usage::Stir { .. }) {
+            style.place_offset_m = [0.0, 0.0];
+        }
+        style
+    }
+}
+
 fn height(shape: &Shape) -> f64 {
     match *shape {
         Shape::Box { size } => size[2],
@@ -145,6 +202,13 @@ pub fn plan_pour(sim: &Simulator, time_scale: f64) -> Result<PourPlan> {
 
 /// Plans `demo` in the simulator's scene; `time_scale` stretches every segment.
 pub fn plan_demonstration(sim: &Simulator, demo: &Demonstration, time_scale: f64) -> Result<PourPlan> {
+    plan_demonstration_by(sim, demo, time_scale, &TeacherStyle::default())
+}
+
+/// Plans `demo` in the simulator's scene as `style` performs it; `time_scale` stretches every
+/// segment (on top of the style's pace). The plan starts from the arm's and the objects'
+/// current state.
+pub fn plan_demonstration_by(sim: &Simulator, demo: &Demonstration, time_scale: f64, style: &TeacherStyle) -> Result<PourPlan> {
     let find = |name: &str| {
         sim.objects().iter().find(|o| o.name == name).ok_or_else(|| SynthError::Plan {
             scenario: demo.scenario,
@@ -160,12 +224,13 @@ pub fn plan_demonstration(sim: &Simulator, demo: &Demonstration, time_scale: f64
     let start = sim.tool_pose();
     let down = pointing_down(&start.rotation);
     let at = |p: Vector3<f64>, r: UnitQuaternion<f64>| Isometry3::from_parts(Translation3::from(p), r);
+    let time_scale = time_scale * style.pace;
     let ts = |s: f64| s * time_scale;
 
     // Grasp from above, the tool point 2 cm over the object's top (within grasp reach).
-    let grasp = at(b + Vector3::new(0.0, 0.0, 0.5 * hb + 0.02), down);
-    let pre_grasp = at(grasp.translation.vector + Vector3::new(0.0, 0.0, 0.12), down);
-    let lift = at(grasp.translation.vector + Vector3::new(0.0, 0.0, 0.20), down);
+    let grasp = at(b + Vector3::new(0.0, 0.0, 0.5 * hb + style.grasp_above_m), down);
+    let pre_grasp = at(grasp.translation.vector + Vector3::new(0.0, 0.0, style.approach_height_m), down);
+    let lift = at(grasp.translation.vector + Vector3::new(0.0, 0.0, style.lift_m), down);
     // Object pose in the tool frame once grasped.
     let held = grasp.inverse() * bottle.pose;
     let tool_for = |tip_tool: Point3<f64>, m: Point3<f64>, r: UnitQuaternion<f64>| at(m.coords - r * tip_tool.coords, r);
@@ -201,7 +266,7 @@ pub fn plan_demonstration(sim: &Simulator, demo: &Demonstration, time_scale: f64
             };
             let tilted = |a: f64| UnitQuaternion::from_scaled_axis(axis * a) * down;
             let mouth = Point3::new(c.x, c.y, c.z + 0.5 * hc + 0.06);
-            let pre_pour = tool_for(mouth_tool, mouth + Vector3::new(0.0, 0.0, 0.10), down);
+            let pre_pour = tool_for(mouth_tool, mouth + Vector3::new(0.0, 0.0, style.pre_pour_height_m), down);
             let pour = tool_for(mouth_tool, mouth, tilted(tilt_rad));
             path.move_to(pre_pour, ts(3.5)).move_to(pour, ts(2.5));
             let pour_start = path.duration();
@@ -241,7 +306,11 @@ pub fn plan_demonstration(sim: &Simulator, demo: &Demonstration, time_scale: f64
     };
     // Place: the object upright, its bottom 1 cm over the table (it drops when released).
     let place = Isometry3::from_parts(
-        Translation3::new(demo.place_xy[0], demo.place_xy[1], sim.scene().table_top_z() + 0.5 * hb),
+        Translation3::new(
+            demo.place_xy[0] + style.place_offset_m[0],
+            demo.place_xy[1] + style.place_offset_m[1],
+            sim.scene().table_top_z() + 0.5 * hb,
+        ),
         bottle.pose.rotation,
     );
     let place_tool = Isometry3::translation(0.0, 0.0, 0.01) * place * held.inverse();

@@ -111,12 +111,97 @@ pub struct SynthOptions {
     pub depth: bool,
     /// The `config/` folder (robot URDF, scenes, `lwr_sim.yaml`).
     pub config_dir: PathBuf,
+    /// Kinesthetic scenarios: a teacher drawn from the seed ([`pour::TeacherStyle::from_seed`]:
+    /// pace, path, grasp) instead of the bundled one.
+    pub vary_teacher: bool,
+    /// Kinesthetic scenarios: demonstrations made before this one in the same session (each
+    /// with this seed, noise and teacher, at its natural length): the bag starts where they
+    /// left the arm and the objects, so the bags replay one after the other into one simulator
+    /// (`cowork teach --bag A --bag B`).
+    pub after: Vec<Scenario>,
 }
 
 impl Default for SynthOptions {
     fn default() -> Self {
-        Self { seed: 0, duration_s: None, noise: true, depth: true, config_dir: PathBuf::from("config") }
+        Self {
+            seed: 0,
+            duration_s: None,
+            noise: true,
+            depth: true,
+            config_dir: PathBuf::from("config"),
+            vary_teacher: false,
+            after: Vec::new(),
+        }
     }
+}
+
+impl Scenario {
+    /// The demonstration of a kinesthetic scenario and its natural length (s); `None` for the
+    /// others.
+    pub fn demonstration(self) -> Option<(&'static pour::Demonstration, f64)> {
+        match self {
+            Scenario::KinestheticPour => Some((&pour::POUR, pour::NATURAL_DURATION_S)),
+            Scenario::KinestheticCoffee => Some((&kitchen::COFFEE, kitchen::COFFEE_DURATION_S)),
+            Scenario::KinestheticSpoon => Some((&kitchen::SPOON, kitchen::SPOON_DURATION_S)),
+            Scenario::KinestheticTea => Some((&kitchen::TEA, kitchen::TEA_DURATION_S)),
+            _ => None,
+        }
+    }
+
+    /// The teacher of a kinesthetic scenario under `options`.
+    pub fn teacher(self, options: &SynthOptions) -> pour::TeacherStyle {
+        match self.demonstration() {
+            Some((demo, _)) if options.vary_teacher => pour::TeacherStyle::from_seed(options.seed, demo),
+            _ => pour::TeacherStyle::default(),
+        }
+    }
+}
+
+/// Plays the demonstrations of `options.after` in `sim` (into a scratch bag beside `path`,
+/// removed) and returns a fresh simulator whose scene is their end state: the arm's joints and
+/// every object where they left them (the gripper is open after each demonstration).
+fn after_demonstrations(mut sim: Simulator, options: &SynthOptions, path: &Path) -> Result<Simulator> {
+    let scratch = path.with_extension("before.tmp.mcap");
+    for prev in &options.after {
+        let Some((demo, natural)) = prev.demonstration() else {
+            return Err(SynthError::BadOption {
+                option: "after",
+                value: prev.to_string(),
+                reason: "only kinesthetic demonstrations can come before a kinesthetic one".into(),
+            });
+        };
+        let style = prev.teacher(options);
+        let plan = pour::plan_demonstration_by(&sim, demo, 1.0, &style)?;
+        let mut quiet = |_: f64| {};
+        let mut run = Runner::new(sim, &scratch, natural * style.pace, &mut quiet)?;
+        pour::run_pour(&mut run, &plan, options.seed, options.noise, |_| Ok(()))?;
+        run.streams.finish()?;
+        sim = run.sim;
+        let _ = std::fs::remove_file(&scratch);
+        if let Some(held) = sim.held_object() {
+            return Err(SynthError::Plan {
+                scenario: demo.scenario,
+                reason: format!("`{held}` is still held at the end of the demonstration; the next one cannot start"),
+            });
+        }
+    }
+    continue_from(&sim)
+}
+
+/// A fresh simulator (t = 0) whose scene is `sim`'s current state: the arm's joints as the
+/// initial joints and every object where it is now. The gripper starts open: call it between
+/// demonstrations, when nothing is held.
+pub fn continue_from(sim: &Simulator) -> Result<Simulator> {
+    let mut scene = sim.scene().clone();
+    scene.robot.initial_joints_deg = sim.joint_positions().iter().map(|q| q.to_degrees()).collect();
+    for o in &mut scene.objects {
+        if let Some(now) = sim.objects().iter().find(|s| s.name == o.name) {
+            let p = now.pose.translation.vector;
+            let q = now.pose.rotation.coords;
+            o.pose = cowork_sim::Pose { position: [p.x, p.y, p.z], rpy: None, quaternion_xyzw: Some([q.x, q.y, q.z, q.w]), look_at: None };
+        }
+    }
+    Ok(Simulator::new(sim.model().clone(), scene, sim.params().clone())?)
 }
 
 /// What [`synthesize`] wrote.
@@ -187,20 +272,28 @@ pub fn synthesize(
         Some(d) => check_duration(d)?,
         None => scenario.default_duration_s(options.seed)?,
     };
-    let sim = load_simulator(&options.config_dir, scenario.scene_file())?;
+    let mut sim = load_simulator(&options.config_dir, scenario.scene_file())?;
+    if !options.after.is_empty() {
+        if scenario.demonstration().is_none() {
+            return Err(SynthError::BadOption {
+                option: "after",
+                value: options.after.iter().map(|s| s.name()).collect::<Vec<_>>().join(","),
+                reason: format!("{scenario} is not a kinesthetic demonstration"),
+            });
+        }
+        sim = after_demonstrations(sim, options, path)?;
+    }
     // Depth noise gets its own stream so that adding depth does not change the other streams.
     let depth_seed = options.seed ^ 0x6465_7074_685f_6e6f;
     let mut depth = if options.depth { Some(DepthRig::new(&sim, depth_seed, options.noise)?) } else { None };
+    let mut written_s = duration;
     let counts = match scenario {
         Scenario::KinestheticPour
         | Scenario::KinestheticCoffee
         | Scenario::KinestheticSpoon
         | Scenario::KinestheticTea => {
-            let (demo, natural) = match scenario {
-                Scenario::KinestheticPour => (&pour::POUR, pour::NATURAL_DURATION_S),
-                Scenario::KinestheticCoffee => (&kitchen::COFFEE, kitchen::COFFEE_DURATION_S),
-                Scenario::KinestheticSpoon => (&kitchen::SPOON, kitchen::SPOON_DURATION_S),
-                _ => (&kitchen::TEA, kitchen::TEA_DURATION_S),
+            let Some((demo, natural)) = scenario.demonstration() else {
+                return Err(SynthError::Plan { scenario: "synth", reason: format!("{scenario} has no demonstration") });
             };
             let scale = duration / natural;
             if !(0.6..=5.0).contains(&scale) {
@@ -212,8 +305,10 @@ pub fn synthesize(
                     ),
                 });
             }
-            let plan = pour::plan_demonstration(&sim, demo, scale)?;
-            let mut run = Runner::new(sim, path, duration, progress)?;
+            let style = scenario.teacher(options);
+            let plan = pour::plan_demonstration_by(&sim, demo, scale, &style)?;
+            written_s = duration * style.pace;
+            let mut run = Runner::new(sim, path, written_s, progress)?;
             pour::run_pour(&mut run, &plan, options.seed, options.noise, |run| {
                 if let Some(rig) = depth.as_mut() {
                     while let Some(t) = rig.due(run.now()) {
@@ -243,5 +338,5 @@ pub fn synthesize(
     };
     progress(1.0);
     let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
-    Ok(SynthSummary { scenario, path: path.to_owned(), duration_s: duration, counts, bytes })
+    Ok(SynthSummary { scenario, path: path.to_owned(), duration_s: written_s, counts, bytes })
 }

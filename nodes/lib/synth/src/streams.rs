@@ -149,23 +149,13 @@ impl Streams {
         self.write(topics::JOINT_STATES, t_ns, &msg)
     }
 
-    /// `/tf`: every link and every object relative to the base frame (as `lwr_sim`).
+    /// `/tf`: the link tree (each link in its parent's frame) and every object in the base
+    /// frame (as `lwr_sim`).
     pub fn tf(&mut self, t_ns: i64, sim: &Simulator) -> Result<()> {
         let stamp = Time::from_nanos(t_ns);
-        let poses = sim.link_poses();
         let base = &self.base_frame;
-        let links = sim
-            .model()
-            .link_names()
-            .iter()
-            .enumerate()
-            .skip(1)
-            .map(|(i, name)| transform(base, name, stamp, poses.get(i)));
-        let objects = sim
-            .objects()
-            .iter()
-            .map(|o| transform(base, &o.name, stamp, &o.pose));
-        let msg = TFMessage { transforms: links.chain(objects).collect() };
+        let transforms = sim.frame_tree().map(|e| transform(e.parent.unwrap_or(base), e.child, stamp, &e.pose)).collect();
+        let msg = TFMessage { transforms };
         self.write(topics::TF, t_ns, &msg)
     }
 

@@ -23,6 +23,7 @@ fn synth(dir: &Path, scenario: Scenario, duration: Option<f64>, depth: bool) -> 
         noise: false,
         depth,
         config_dir: config_dir(),
+        ..SynthOptions::default()
     };
     synthesize(scenario, &options, &path, &mut |_| {}).unwrap();
     path
@@ -82,14 +83,28 @@ fn static_scene_holds_each_configuration_still_and_renders_it() {
     }
 }
 
+/// `child`'s pose in the base frame: `/tf` is a tree (each link in its parent's frame), so the
+/// transforms are composed up to `lwr_base_link`.
 fn tf_pose(tf: &TFMessage, child: &str) -> Option<Isometry3<f64>> {
-    tf.transforms.iter().find(|t| t.child_frame_id == child).map(|t| {
+    let edge = |c: &str| tf.transforms.iter().find(|t| t.child_frame_id == c);
+    let iso = |t: &cowork_msgs::geometry_msgs::TransformStamped| {
         let (p, q) = (&t.transform.translation, &t.transform.rotation);
         Isometry3::from_parts(
             Translation3::new(p.x, p.y, p.z),
             UnitQuaternion::from_quaternion(Quaternion::new(q.w, q.x, q.y, q.z)),
         )
-    })
+    };
+    let first = edge(child)?;
+    let (mut pose, mut frame) = (iso(first), first.header.frame_id.clone());
+    for _ in 0..tf.transforms.len() {
+        if frame == "lwr_base_link" {
+            return Some(pose);
+        }
+        let up = edge(&frame)?;
+        pose = iso(up) * pose;
+        frame = up.header.frame_id.clone();
+    }
+    None
 }
 
 #[test]

@@ -1,0 +1,451 @@
+//! `cowork teach --bag BAG [--bag BAG ...] --task TASK --ltm-out FILE --database-dir DIR`:
+//! kinesthetic teaching in the graph (thesis Sec. 4.3.3, Algorithm 4). Starts `lwr_sim`
+//! (`--follow-wrench-stamps`, no camera), `robot_manager` and `attentional_supervisor` as
+//! processes on a private DDS domain, replays the demonstrations' wrenches and speech into them
+//! on the simulated clock, one bag after the other, and leaves the learned LTM and the primitive
+//! database; prints the segments, what the supervisor learned and the state its working memory
+//! ended in. The same teaching is the first half of every kitchen experiment
+//! (`cowork experiment pouring|coffee|...`).
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use cowork_graph::{FeedSummary, Graph, TeachingFeed};
+use cowork_msgs::msg::{ActionSegment, RobotStream, WorkingMemory};
+use cowork_ros::{NodeConfig, RosNode, qos};
+use cowork_supervisor::{Ltm, Supervisor, SupervisorConfig};
+
+/// Arguments of `cowork teach`.
+#[derive(Debug, Args)]
+pub struct TeachArgs {
+    /// Kinesthetic demonstration (MCAP with /external_wrench and /speech_command, e.g. from
+    /// `cowork bag synth kinesthetic-pour`); several play one after the other.
+    #[arg(long = "bag", required = true)]
+    pub bags: Vec<PathBuf>,
+    /// Task the supervisor teaches (a behaviour of the LTM: pourDrink, prepareCoffee, ...).
+    #[arg(long)]
+    pub task: String,
+    /// Where the learned LTM is saved (atomically; the input LTM is never overwritten).
+    #[arg(long)]
+    pub ltm_out: PathBuf,
+    /// The robot manager's primitive database directory (created; an existing database is
+    /// extended, so previously taught subtasks are reused).
+    #[arg(long)]
+    pub database_dir: PathBuf,
+    /// The LTM taught from (the kitchen schemas, or an LTM learned before).
+    #[arg(long, default_value = "config/tasks/kitchen.schema")]
+    pub ltm: PathBuf,
+    /// Scene of the teaching (must be the scene the demonstrations were made in).
+    #[arg(long, default_value = "config/scenes/kitchen.yaml")]
+    pub scene: PathBuf,
+    /// lwr_sim's parameter file (its depth camera is switched off for teaching).
+    #[arg(long, default_value = "config/lwr_sim.yaml")]
+    pub sim_params: PathBuf,
+    /// Simulated seconds per wall-clock second (the teacher's wrenches act at their stamps at
+    /// any rate; a feed that falls behind holds the simulated clock).
+    #[arg(long, default_value_t = 4.0)]
+    pub rate: f64,
+    /// Directory of the node binaries.
+    #[arg(long, default_value = "target/release")]
+    pub bin_dir: PathBuf,
+    /// Node logs go here.
+    #[arg(long, default_value = "out/teach/logs")]
+    pub logs: PathBuf,
+    /// Wall-clock seconds to wait for the nodes to be up.
+    #[arg(long, default_value_t = 90.0)]
+    pub startup_timeout: f64,
+}
+
+/// What a teaching run is given.
+#[derive(Debug, Clone)]
+pub struct TeachSetup {
+    /// Demonstrations, in order.
+    pub bags: Vec<PathBuf>,
+    /// Task taught.
+    pub task: String,
+    /// LTM in.
+    pub ltm: PathBuf,
+    /// Learned LTM out.
+    pub ltm_out: PathBuf,
+    /// Primitive database directory.
+    pub database_dir: PathBuf,
+    /// Scene file.
+    pub scene: PathBuf,
+    /// lwr_sim parameter file (the camera is switched off in a copy).
+    pub sim_params: PathBuf,
+    /// Simulated s per wall s.
+    pub rate: f64,
+    /// Node binaries.
+    pub bin_dir: PathBuf,
+    /// Log directory.
+    pub logs: PathBuf,
+    /// Wall s for the graph to come up.
+    pub startup_timeout_s: f64,
+    /// DDS domain.
+    pub domain: u16,
+}
+
+/// One segment the robot manager reported (Fig. 5.18).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Segment {
+    /// `foa1(water)`.
+    pub label: String,
+    /// `foa`, `noa` or `gripper`.
+    pub kind: &'static str,
+    /// Object of its frame.
+    pub object: String,
+    /// Simulated start and end, s from the first demonstration's start.
+    pub span_s: (f64, f64),
+}
+
+/// A subtask the supervisor learned: its head and its actions in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Learned {
+    /// `subtask(take,water)`.
+    pub subtask: String,
+    /// `[foa1(water), noa2(water), close3(water)]`.
+    pub actions: Vec<String>,
+}
+
+/// What a teaching run produced.
+#[derive(Debug, Clone)]
+pub struct Taught {
+    /// Length of the demonstrations (the teaching time), s.
+    pub demonstration_s: f64,
+    /// Each bag's length, s.
+    pub bag_s: Vec<f64>,
+    /// Wall-clock time of the replay, s.
+    pub wall_s: f64,
+    /// Segments, in order.
+    pub segments: Vec<Segment>,
+    /// Subtasks learned in this run (not in the input LTM).
+    pub learned: Vec<Learned>,
+    /// Primitives in the database afterwards.
+    pub primitives: usize,
+    /// True state variables of the working memory at the end (`water.added`, ...).
+    pub true_variables: Vec<String>,
+    /// Whether the task's post-condition held at the end of the demonstrations.
+    pub task_done: bool,
+    /// Warnings the manager and the supervisor logged.
+    pub warnings: Vec<String>,
+    /// The feed.
+    pub feed: FeedSummary,
+}
+
+/// Runs `cowork teach`.
+pub fn run(args: TeachArgs) -> Result<()> {
+    let setup = TeachSetup {
+        bags: args.bags,
+        task: args.task,
+        ltm: args.ltm,
+        ltm_out: args.ltm_out,
+        database_dir: args.database_dir,
+        scene: args.scene,
+        sim_params: args.sim_params,
+        rate: args.rate,
+        bin_dir: args.bin_dir,
+        logs: args.logs,
+        startup_timeout_s: args.startup_timeout,
+        domain: cowork_graph::private_domain(20, 80, 0),
+    };
+    cowork_ros::shutdown::install();
+    let taught = teach(&setup)?;
+    print(&setup, &taught);
+    if taught.learned.is_empty() {
+        bail!(
+            "the demonstrations taught nothing: no action was attached to a subtask of {} (logs in {})",
+            setup.task,
+            setup.logs.display()
+        );
+    }
+    if !taught.task_done {
+        bail!(
+            "{} is not complete after the demonstrations (true: {}); what was learned is saved in {} and {}, but executing it would stop at the first open subtask — logs in {}",
+            setup.task,
+            if taught.true_variables.is_empty() { "nothing".into() } else { taught.true_variables.join(", ") },
+            setup.ltm_out.display(),
+            setup.database_dir.display(),
+            setup.logs.display()
+        );
+    }
+    Ok(())
+}
+
+/// Prints the segments, the learned subtasks and the end state.
+pub fn print(setup: &TeachSetup, t: &Taught) {
+    println!(
+        "taught {} from {} demonstration(s), {:.1} s ({}), replayed in {:.1} s wall",
+        setup.task,
+        t.bag_s.len(),
+        t.demonstration_s,
+        t.bag_s.iter().map(|s| format!("{s:.1} s")).collect::<Vec<_>>().join(" + "),
+        t.wall_s
+    );
+    println!(
+        "teacher: {} messages, {} words more than 50 ms of simulated time late (latest {:.0} ms)",
+        t.feed.published,
+        t.feed.late_50ms,
+        t.feed.max_late_s * 1e3
+    );
+    println!("segments ({}):", t.segments.len());
+    for s in &t.segments {
+        println!("  {:>6.2} – {:>6.2} s  {:<8} {:<16} frame {}", s.span_s.0, s.span_s.1, s.kind, s.label, s.object);
+    }
+    println!("learned ({} subtasks):", t.learned.len());
+    for l in &t.learned {
+        println!("  {} = [{}]", l.subtask, l.actions.join(", "));
+    }
+    println!(
+        "working memory at the end: {} {}; true: {}",
+        setup.task,
+        if t.task_done { "done" } else { "NOT done" },
+        t.true_variables.join(", ")
+    );
+    for w in &t.warnings {
+        println!("  warning: {w}");
+    }
+    println!("LTM: {}  primitives: {} in {}", setup.ltm_out.display(), t.primitives, setup.database_dir.display());
+}
+
+fn kind(k: u8) -> &'static str {
+    match k {
+        ActionSegment::KIND_NOA => "noa",
+        ActionSegment::KIND_FOA => "foa",
+        ActionSegment::KIND_GRIPPER => "gripper",
+        _ => "?",
+    }
+}
+
+/// A copy of lwr_sim's parameter file with the depth camera off, at `out`.
+fn sim_params_without_camera(params: &Path, out: &Path) -> Result<()> {
+    let text = std::fs::read_to_string(params).with_context(|| format!("reading {}", params.display()))?;
+    let mut doc: serde_yaml_ng::Value =
+        serde_yaml_ng::from_str(&text).with_context(|| format!("{}: not YAML", params.display()))?;
+    let depth = doc
+        .get_mut("lwr_sim")
+        .and_then(|n| n.get_mut("ros__parameters"))
+        .and_then(|p| p.get_mut("depth"))
+        .and_then(serde_yaml_ng::Value::as_mapping_mut)
+        .with_context(|| format!("{}: no lwr_sim.ros__parameters.depth block", params.display()))?;
+    depth.insert("enabled".into(), false.into());
+    std::fs::write(out, serde_yaml_ng::to_string(&doc)?).with_context(|| format!("writing {}", out.display()))
+}
+
+/// Runs the teaching graph, replays the demonstrations, stops the graph and reads back what
+/// was learned. Everything is checked before a process starts.
+pub fn teach(s: &TeachSetup) -> Result<Taught> {
+    if !(s.rate.is_finite() && s.rate > 0.0) {
+        bail!("--rate {} must be > 0", s.rate);
+    }
+    for bin in ["lwr_sim", "robot_manager", "attentional_supervisor"] {
+        let p = s.bin_dir.join(bin);
+        if !p.is_file() {
+            bail!("{} missing; build with: cargo build --release --bins -p {bin}", p.display());
+        }
+    }
+    for (what, p) in [("--scene", &s.scene), ("--sim-params", &s.sim_params)] {
+        if !p.is_file() {
+            bail!("{what} {}: no such file", p.display());
+        }
+    }
+    let ltm_in = Ltm::load(&s.ltm).with_context(|| format!("the LTM {}", s.ltm.display()))?;
+    Supervisor::new(ltm_in.clone(), &s.task, SupervisorConfig::default())
+        .with_context(|| format!("task {:?} in {}", s.task, s.ltm.display()))?;
+    if s.ltm_out == s.ltm {
+        bail!("--ltm-out must differ from --ltm ({}): the input LTM is never overwritten", s.ltm.display());
+    }
+    std::fs::create_dir_all(&s.database_dir).with_context(|| format!("creating {}", s.database_dir.display()))?;
+    std::fs::create_dir_all(&s.logs).with_context(|| format!("creating {}", s.logs.display()))?;
+    if let Some(dir) = s.ltm_out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let db_file = s.database_dir.join("lwr.primitives.json");
+    if db_file.is_file() {
+        cowork_manager::Database::load(&db_file).with_context(|| format!("the database {}", db_file.display()))?;
+    }
+    let sim_params = s.logs.join("lwr_sim.teach.yaml");
+    sim_params_without_camera(&s.sim_params, &sim_params)?;
+
+    let mut node = RosNode::new(
+        "cowork_teach",
+        &NodeConfig { domain_id: Some(s.domain), use_sim_time: true, ..NodeConfig::default() },
+    )?;
+    let robot = node.subscription::<RobotStream>("/robot_stream", &qos::reliable_depth(100))?;
+    let wm = node.subscription::<WorkingMemory>("/supervisor/working_memory", &qos::reliable_depth(10))?;
+    let feed = TeachingFeed::from_bags(&mut node, &s.bags)?;
+    let bag_s: Vec<f64> = feed.bags().iter().map(|b| b.1).collect();
+    let demonstration_s = bag_s.iter().sum();
+    let feed_s = feed.duration_s();
+
+    let mut g = Graph::new(s.domain, &s.logs)?;
+    // Nothing outlives a killed `cowork teach` for long.
+    let limit_s = s.startup_timeout_s + 30.0 + 8.0 * (feed_s + 5.0) / s.rate.min(1.0);
+    let dur = format!("{limit_s:.0}");
+    let p = |p: &Path| p.display().to_string();
+    g.spawn(
+        "lwr_sim",
+        &s.bin_dir.join("lwr_sim"),
+        &[
+            "--scene".into(),
+            p(&s.scene),
+            "--params".into(),
+            p(&sim_params),
+            "--rate".into(),
+            s.rate.to_string(),
+            "--follow-wrench-stamps".into(),
+            "--duration".into(),
+            format!("{:.0}", feed_s + limit_s),
+        ],
+    )?;
+    g.spawn(
+        "robot_manager",
+        &s.bin_dir.join("robot_manager"),
+        &["--use-sim-time".into(), "--database-dir".into(), p(&s.database_dir), "--duration".into(), dur.clone()],
+    )?;
+    g.spawn(
+        "attentional_supervisor",
+        &s.bin_dir.join("attentional_supervisor"),
+        &[
+            "--ltm".into(),
+            p(&s.ltm),
+            "--task".into(),
+            s.task.clone(),
+            "--use-sim-time".into(),
+            "--save-ltm".into(),
+            p(&s.ltm_out),
+            "--duration".into(),
+            dur,
+        ],
+    )?;
+    let until = Instant::now() + cowork_ros::duration_s(s.startup_timeout_s);
+    let mut heard_manager = false;
+    let mut last_wm: Option<WorkingMemory> = None;
+    loop {
+        g.check_alive()?;
+        if cowork_ros::shutdown::requested() {
+            bail!("interrupted (Ctrl-C) before teaching started");
+        }
+        heard_manager |= robot.take().is_some();
+        while let Some(m) = wm.take() {
+            last_wm = Some(m);
+        }
+        if heard_manager && last_wm.is_some() && feed.matched(&node, 1, 2) && node.now().to_secs_f64() > 0.0 {
+            break;
+        }
+        if Instant::now() > until {
+            bail!(
+                "the teaching graph was not up after {} s (manager on /robot_stream: {heard_manager}, supervisor on /supervisor/working_memory: {}, wrench/speech readers matched: {}); logs in {}",
+                s.startup_timeout_s,
+                last_wm.is_some(),
+                feed.matched(&node, 1, 2),
+                s.logs.display()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let t0 = node.now().to_secs_f64() + 0.5;
+    let wall = Instant::now();
+    let mut segments = Vec::new();
+    // The manager's /robot_stream stamp: how far it has processed the world (simulated s).
+    let collect = |g: &mut Graph, segments: &mut Vec<Segment>, last_wm: &mut Option<WorkingMemory>| -> Result<Option<f64>, String> {
+        let mut newest = None;
+        while let Some(r) = robot.take() {
+            newest = Some(r.header.stamp.to_secs_f64());
+            segments.extend(r.segments.iter().map(|seg| Segment {
+                label: seg.label.clone(),
+                kind: kind(seg.kind),
+                object: seg.object_name.clone(),
+                span_s: (seg.start_time.to_secs_f64() - t0, seg.end_time.to_secs_f64() - t0),
+            }));
+        }
+        while let Some(m) = wm.take() {
+            *last_wm = Some(m);
+        }
+        if cowork_ros::shutdown::requested() {
+            return Err("interrupted (Ctrl-C)".into());
+        }
+        g.check_alive().map_err(|e| e.to_string())?;
+        Ok(newest)
+    };
+    // Wrenches 0.2 s ahead of the clock and at most 0.3 s ahead of the manager (lockstep: a
+    // manager stalled by a slow disk holds the simulated clock); 1.5 s after the last word for
+    // the last segment, the database and the LTM.
+    let fed = {
+        let (g, segs, last) = (&mut g, &mut segments, &mut last_wm);
+        let limit = Duration::from_secs_f64(120.0 + 6.0 * feed_s / s.rate.min(1.0));
+        feed.play_paced(&node, t0, 0.2, 1.5, limit, 0.3, &mut || collect(g, segs, last))?
+    };
+    // The supervisor's snapshot after the last word (10 Hz).
+    let settle = Instant::now() + Duration::from_secs(3);
+    let t_end = node.now().to_secs_f64();
+    while Instant::now() < settle {
+        collect(&mut g, &mut segments, &mut last_wm).map_err(anyhow::Error::msg)?;
+        if last_wm.as_ref().is_some_and(|w| w.header.stamp.to_secs_f64() > t_end) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let wall_s = wall.elapsed().as_secs_f64();
+    let warnings: Vec<String> = ["robot_manager", "attentional_supervisor"]
+        .iter()
+        .flat_map(|n| {
+            g.log(n)
+                .lines()
+                .filter(|l| l.contains(" WARN ") || l.contains("ERROR"))
+                .map(|l| format!("{n}: {}", l.split_once("WARN").or(l.split_once("ERROR")).map_or(l, |x| x.1).trim()))
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    // SIGINT: the supervisor saves the LTM once more, the manager its database.
+    g.stop();
+    if fed.dropped > 0 {
+        bail!("{} of the teacher's messages were dropped by a full DDS queue", fed.dropped);
+    }
+    let ltm_out = Ltm::load(&s.ltm_out).with_context(|| {
+        format!(
+            "the supervisor saved no learned LTM at {} (nothing was attached?); its log: {}",
+            s.ltm_out.display(),
+            g.log_path("attentional_supervisor").display()
+        )
+    })?;
+    let before: BTreeSet<String> = ltm_in.schemas().map(|(_, sc)| compact(&sc.head.to_string())).collect();
+    let learned: Vec<Learned> = ltm_out
+        .schemas()
+        .filter(|(_, sc)| sc.kind.is_none() && !before.contains(&compact(&sc.head.to_string())))
+        .map(|(_, sc)| Learned {
+            subtask: compact(&sc.head.to_string()),
+            actions: sc.list.iter().map(|e| compact(&e.term.to_string())).collect(),
+        })
+        .collect();
+    let primitives = if db_file.is_file() {
+        cowork_manager::Database::load(&db_file)
+            .with_context(|| format!("the database {}", db_file.display()))?
+            .primitives
+            .len()
+    } else {
+        0
+    };
+    let (true_variables, task_done) = match &last_wm {
+        Some(w) => (w.true_variables.clone(), w.nodes.iter().any(|n| compact(&n.name) == compact(&s.task) && n.done)),
+        None => (Vec::new(), false),
+    };
+    Ok(Taught {
+        demonstration_s,
+        bag_s,
+        wall_s,
+        segments,
+        learned,
+        primitives,
+        true_variables,
+        task_done,
+        warnings,
+        feed: fed,
+    })
+}
+
+fn compact(s: &str) -> String {
+    s.replace(' ', "")
+}

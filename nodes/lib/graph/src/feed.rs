@@ -1,0 +1,313 @@
+//! Kinesthetic demonstrations played into a running graph on the simulated clock.
+
+use std::collections::VecDeque;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::geometry_msgs::WrenchStamped;
+use cowork_msgs::std_msgs::String as RosString;
+use cowork_ros::{Publisher, RosNode};
+
+use crate::{Error, Result};
+
+/// Gap of simulated time between two bags of one feed, s: the arm rests under a zero wrench.
+pub const BAG_GAP_S: f64 = 1.0;
+
+#[derive(Debug)]
+enum Item {
+    Wrench(WrenchStamped),
+    Speech(RosString),
+}
+
+/// One or more kinesthetic-teaching bags' `/external_wrench` and `/speech_command`, published
+/// into the graph on the simulated clock ([`TeachingFeed::play`]). Bags play one after the
+/// other, [`BAG_GAP_S`] apart, with a zero wrench at the end of each (the teacher lets go).
+#[derive(Debug)]
+pub struct TeachingFeed {
+    /// (feed time s, item), sorted by time.
+    items: Vec<(f64, Item)>,
+    /// Feed time at which each bag starts, and its length, s.
+    bags: Vec<(f64, f64)>,
+    wrench: Publisher<WrenchStamped>,
+    speech: Publisher<RosString>,
+}
+
+fn read(bag: &Path, offset_s: f64, items: &mut Vec<(f64, Item)>) -> Result<f64> {
+    let bad = |message: String| Error::Bag { path: bag.to_owned(), message };
+    let reader = cowork_bag::BagReader::open(bag).map_err(|e| bad(e.to_string()))?;
+    let (mut last, mut wrenches) = (0.0f64, 0usize);
+    for m in reader.messages() {
+        let m = m.map_err(|e| bad(e.to_string()))?;
+        let t = m.log_time_ns as f64 * 1e-9;
+        let item = match &*m.topic {
+            "/external_wrench" => {
+                wrenches += 1;
+                Item::Wrench(m.decode().map_err(|e| bad(format!("/external_wrench at {t:.3} s: {e}")))?)
+            }
+            "/speech_command" => Item::Speech(m.decode().map_err(|e| bad(format!("/speech_command at {t:.3} s: {e}")))?),
+            _ => continue,
+        };
+        last = last.max(t);
+        items.push((offset_s + t, item));
+    }
+    if wrenches == 0 {
+        return Err(bad("no /external_wrench message: not a kinesthetic demonstration".into()));
+    }
+    Ok(last)
+}
+
+impl TeachingFeed {
+    /// Reads the two topics of `bag` (bag time, s) and creates their publishers on `node`.
+    pub fn new(node: &mut RosNode, bag: &Path) -> Result<Self> {
+        Self::from_bags(node, &[bag])
+    }
+
+    /// The bags one after the other as one teaching session (Sec. 4.3.3: the teacher shows the
+    /// subtasks in a row and says `done` once): bag k + 1 starts [`BAG_GAP_S`] after the last
+    /// message of bag k, the teacher's hands off in between (zero wrenches at 100 Hz); every
+    /// `done` but the last and every `teach` but the first are left out.
+    pub fn from_bags<P: AsRef<Path>>(node: &mut RosNode, bags: &[P]) -> Result<Self> {
+        let mut items = Vec::new();
+        let mut spans = Vec::new();
+        let mut offset = 0.0;
+        for (k, bag) in bags.iter().enumerate() {
+            let mut own = Vec::new();
+            let len = read(bag.as_ref(), offset, &mut own)?;
+            let (first, last) = (k == 0, k + 1 == bags.len());
+            own.retain(|(_, i)| match i {
+                Item::Speech(s) => match s.data.trim().to_ascii_lowercase().as_str() {
+                    "teach" => first,
+                    "done" => last,
+                    _ => true,
+                },
+                Item::Wrench(_) => true,
+            });
+            items.append(&mut own);
+            spans.push((offset, len));
+            if !last {
+                let mut t = offset + len + 1e-3;
+                while t < offset + len + BAG_GAP_S - 1e-3 {
+                    items.push((t, Item::Wrench(WrenchStamped::default())));
+                    t += 0.01;
+                }
+                offset += len + BAG_GAP_S;
+            }
+        }
+        // Stable: a bag's own order is kept for equal stamps.
+        items.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // Deep enough that a write never meets a full queue (the teacher's forces are never
+        // dropped), and a replay's write waits rather than drops.
+        let q = cowork_ros::qos::replay(4096);
+        let dds = |topic: &'static str| move |e: anyhow::Error| Error::Dds { topic, message: format!("{e:#}") };
+        Ok(Self {
+            items,
+            bags: spans,
+            wrench: node.publisher("/external_wrench", &q).map_err(dds("/external_wrench"))?,
+            speech: node.publisher("/speech_command", &q).map_err(dds("/speech_command"))?,
+        })
+    }
+
+    /// Feed time of the last message, s.
+    pub fn duration_s(&self) -> f64 {
+        self.items.last().map_or(0.0, |(t, _)| *t)
+    }
+
+    /// Start (feed time) and length of each bag, s.
+    pub fn bags(&self) -> &[(f64, f64)] {
+        &self.bags
+    }
+
+    /// Speech words with their feed times, s.
+    pub fn words(&self) -> Vec<(f64, String)> {
+        self.items
+            .iter()
+            .filter_map(|(t, i)| match i {
+                Item::Speech(s) => Some((*t, s.data.clone())),
+                Item::Wrench(_) => None,
+            })
+            .collect()
+    }
+
+    /// Whether at least `wrench` readers of `/external_wrench` and `speech` of
+    /// `/speech_command` are matched.
+    pub fn matched(&self, node: &RosNode, wrench: usize, speech: usize) -> bool {
+        self.wrench.subscription_count(node) >= wrench && self.speech.subscription_count(node) >= speech
+    }
+
+    /// Plays the teacher into an `lwr_sim` that follows wrench stamps
+    /// (`--follow-wrench-stamps`): every wrench is stamped with its due simulated time `t0` +
+    /// feed time and published up to `lead_s` ahead of `/clock` (of `node`, which must use sim
+    /// time), so the simulator applies it exactly then and waits whenever this feed falls
+    /// behind; each speech word is published when `/clock` reaches its due time (the manager
+    /// relays `gripper close|open` to the simulator; the demonstration holds still around them).
+    /// A last zero wrench at `settle_s` after the feed lets the simulator run on that long.
+    /// `alive` is polled while waiting (its error ends the feed); `limit` bounds the wall time.
+    pub fn play(
+        self,
+        node: &RosNode,
+        t0: f64,
+        lead_s: f64,
+        settle_s: f64,
+        limit: Duration,
+        alive: &mut dyn FnMut() -> std::result::Result<(), String>,
+    ) -> Result<FeedSummary> {
+        let mut polls = 0u32;
+        let mut poll = || {
+            polls += 1;
+            if polls.is_multiple_of(500) {
+                alive()?;
+            }
+            Ok(None)
+        };
+        self.play_paced(node, t0, lead_s, settle_s, limit, f64::INFINITY, &mut poll)
+    }
+
+    /// As [`TeachingFeed::play`], and in lockstep with a follower that reports how far (in
+    /// simulated time, s) it has processed the world — the robot manager's `/robot_stream`
+    /// stamp: `poll` is called on every turn and returns that time (`None`: nothing new; an
+    /// error ends the feed). No wrench is published more than `follower_lead_s` ahead of it, so
+    /// the simulator's clock waits for a follower that stalls (a slow disk under its database
+    /// save, a loaded machine) instead of running on while its inputs queue up and overflow;
+    /// and a word is published only once the follower has reached its due time, so the
+    /// follower sees the words and the motion in the order the teacher made them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn play_paced(
+        self,
+        node: &RosNode,
+        t0: f64,
+        lead_s: f64,
+        settle_s: f64,
+        limit: Duration,
+        follower_lead_s: f64,
+        poll: &mut dyn FnMut() -> std::result::Result<Option<f64>, String>,
+    ) -> Result<FeedSummary> {
+        let dds = |topic: &'static str| move |e: anyhow::Error| Error::Dds { topic, message: format!("{e:#}") };
+        let start = Instant::now();
+        let paced = follower_lead_s.is_finite();
+        let mut follower = f64::NEG_INFINITY;
+        let mut summary = FeedSummary { last_s: t0, ..FeedSummary::default() };
+        let end = t0 + self.duration_s() + settle_s;
+        let (mut wrenches, mut words) = (VecDeque::new(), VecDeque::new());
+        for (t, item) in self.items {
+            match item {
+                Item::Wrench(w) => wrenches.push_back((t0 + t, w)),
+                Item::Speech(s) => words.push_back((t0 + t, s)),
+            }
+        }
+        let mut last_zero = f64::NEG_INFINITY;
+        loop {
+            if let Some(f) = poll().map_err(Error::Aborted)? {
+                follower = follower.max(f);
+            }
+            let now = node.now().to_secs_f64();
+            let mut progressed = false;
+            // While a word is due, the clock goes no further than just past it (the teacher
+            // holds still there) until it is said.
+            let word_due = words.front().map_or(f64::INFINITY, |(d, _)| *d + 0.05);
+            let cap = if paced { follower + follower_lead_s } else { f64::INFINITY };
+            let horizon = (now + lead_s).min(cap).min(word_due);
+            while let Some((due, _)) = wrenches.front()
+                && *due <= horizon
+            {
+                let Some((due, mut w)) = wrenches.pop_front() else { break };
+                w.header.stamp = Time::from_secs_f64(due);
+                self.wrench.publish(w).map_err(dds("/external_wrench"))?;
+                summary.published += 1;
+                progressed = true;
+            }
+            while let Some((due, _)) = words.front()
+                && *due <= now
+                && (!paced || follower >= *due)
+            {
+                let Some((due, s)) = words.pop_front() else { break };
+                summary.max_late_s = summary.max_late_s.max(now - due);
+                if now - due > 0.05 {
+                    summary.late_50ms += 1;
+                }
+                self.speech.publish(s).map_err(dds("/speech_command"))?;
+                summary.last_s = due;
+                summary.published += 1;
+                progressed = true;
+            }
+            // The teacher has let go: zero wrenches carry the clock on (to the words still due
+            // and to the end), paced like the others.
+            if wrenches.is_empty() && last_zero < end {
+                let to = (now + lead_s).min(cap).min(end);
+                if to >= last_zero + 0.01 || (to >= end && last_zero < end) {
+                    let mut w = WrenchStamped::default();
+                    w.header.stamp = Time::from_secs_f64(to);
+                    self.wrench.publish(w).map_err(dds("/external_wrench"))?;
+                    last_zero = to;
+                    progressed = true;
+                }
+            }
+            if words.is_empty() && last_zero >= end && now >= end - 1e-6 {
+                break;
+            }
+            if start.elapsed() > limit {
+                return Err(Error::FeedTimeout {
+                    limit_s: limit.as_secs_f64(),
+                    sim_s: now,
+                    left: wrenches.len() + words.len(),
+                });
+            }
+            if !progressed {
+                std::thread::sleep(Duration::from_micros(500));
+            }
+        }
+        summary.dropped = self.wrench.dropped() + self.speech.dropped();
+        Ok(summary)
+    }
+}
+
+/// What [`TeachingFeed::play`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct FeedSummary {
+    /// Simulated time of the last message, s.
+    pub last_s: f64,
+    /// Messages published.
+    pub published: u64,
+    /// Messages a full reliable queue dropped (must be 0).
+    pub dropped: u64,
+    /// Largest lateness of a speech word behind its due simulated time, s.
+    pub max_late_s: f64,
+    /// Speech words more than 50 ms of simulated time late.
+    pub late_50ms: u64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bag(name: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../bags").join(name)
+    }
+
+    #[test]
+    fn the_bundled_pour_is_read_with_its_words_in_order() {
+        let mut items = Vec::new();
+        let len = read(&bag("kinesthetic-pour.mcap"), 10.0, &mut items).unwrap();
+        assert!((25.0..35.0).contains(&len), "{len}");
+        let words: Vec<&str> = items
+            .iter()
+            .filter_map(|(_, i)| match i {
+                Item::Speech(s) => Some(s.data.as_str()),
+                Item::Wrench(_) => None,
+            })
+            .collect();
+        assert_eq!(words, ["teach", "gripper close", "gripper open", "done"]);
+        assert!(items.iter().all(|(t, _)| *t >= 10.0 && *t <= 10.0 + len));
+        let wrenches = items.iter().filter(|(_, i)| matches!(i, Item::Wrench(_))).count();
+        assert!(wrenches as f64 > 90.0 * len, "100 Hz of wrenches: {wrenches}");
+    }
+
+    #[test]
+    fn a_bag_without_wrenches_or_no_bag_is_refused_by_name() {
+        let mut items = Vec::new();
+        let e = read(&bag("static-scene.mcap"), 0.0, &mut items).unwrap_err().to_string();
+        assert!(e.contains("static-scene.mcap") && e.contains("not a kinesthetic demonstration"), "{e}");
+        let e = read(&bag("no-such.mcap"), 0.0, &mut items).unwrap_err().to_string();
+        assert!(e.contains("no-such.mcap"), "{e}");
+    }
+}

@@ -1,0 +1,333 @@
+//! Node processes of the cowork graph and the kinesthetic teaching feed — the one place that
+//! starts, watches and stops them, shared by `cowork experiment`, `cowork teach` and the graph
+//! tests.
+//!
+//! A [`Graph`] runs node binaries on one private `ROS_DOMAIN_ID`, each with its stdout and
+//! stderr in `<logs>/<name>.log`; it names the first process that died (exit status, end of its
+//! log) and stops them all with SIGINT (the nodes save what they learned and stop cleanly), then
+//! SIGKILL after 5 s — also when dropped, so a failing caller leaves nothing running.
+//! [`TeachingFeed`] plays kinesthetic demonstrations (the `/external_wrench` and
+//! `/speech_command` of one or more bags) into such a graph on the simulated clock.
+//!
+//! ```no_run
+//! use cowork_graph::{Graph, private_domain};
+//! # fn main() -> Result<(), cowork_graph::Error> {
+//! let mut graph = Graph::new(private_domain(100, 120, 0), "out/logs".as_ref())?;
+//! graph.spawn("lwr_sim", "target/release/lwr_sim".as_ref(), &["--rate", "2"])?;
+//! graph.check_alive()?;
+//! graph.stop();
+//! # Ok(()) }
+//! ```
+
+mod feed;
+
+use std::ffi::OsStr;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+pub use feed::{FeedSummary, TeachingFeed};
+
+/// What can go wrong with the graph's processes or the teaching feed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A log file or directory could not be created.
+    #[error("{path}: {source}")]
+    Log {
+        /// The file or directory.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A node binary could not be started.
+    #[error("cannot start {name} ({}): {source}", program.display())]
+    Spawn {
+        /// Node name.
+        name: String,
+        /// The binary.
+        program: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A node process exited while it should be running.
+    #[error("{name} exited ({status}); its log {} ends:\n{tail}", log.display())]
+    Exited {
+        /// Node name.
+        name: String,
+        /// Its exit status, in words.
+        status: String,
+        /// Its log file.
+        log: PathBuf,
+        /// The last lines of its log.
+        tail: String,
+    },
+    /// A teaching bag could not be read or holds a message that does not decode.
+    #[error("teaching bag {}: {message}", path.display())]
+    Bag {
+        /// The bag.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// A DDS publisher could not be created or written.
+    #[error("{topic}: {message}")]
+    Dds {
+        /// The topic.
+        topic: &'static str,
+        /// What the DDS layer said.
+        message: String,
+    },
+    /// The teaching feed did not finish in time.
+    #[error("the teaching feed did not finish in {limit_s:.0} s of wall time (simulated time {sim_s:.2} s, {left} messages left)")]
+    FeedTimeout {
+        /// The wall-time limit, s.
+        limit_s: f64,
+        /// Simulated time when it gave up, s.
+        sim_s: f64,
+        /// Messages not yet published.
+        left: usize,
+    },
+    /// The caller's liveness check failed while the feed played (e.g. a node died).
+    #[error("{0}")]
+    Aborted(String),
+}
+
+/// `Result` of this crate.
+pub type Result<T> = std::result::Result<T, Error>;
+
+/// A DDS domain id in `base .. base + span` from this process's id and `k`, so that parallel
+/// runs (tests, experiments) rarely share a domain. `span` 0 is taken as 1.
+pub fn private_domain(base: u16, span: u16, k: u32) -> u16 {
+    let span = u32::from(span.max(1));
+    base + (std::process::id().wrapping_mul(7).wrapping_add(k) % span) as u16
+}
+
+/// One node process.
+#[derive(Debug)]
+struct Proc {
+    name: String,
+    child: Child,
+    log: PathBuf,
+}
+
+/// The node processes of one graph on one DDS domain. Dropping it stops them all.
+#[derive(Debug)]
+pub struct Graph {
+    domain: u16,
+    logs: PathBuf,
+    cwd: Option<PathBuf>,
+    procs: Vec<Proc>,
+}
+
+/// Seconds a node gets to stop after SIGINT before it is killed.
+pub const STOP_GRACE_S: f64 = 5.0;
+
+impl Graph {
+    /// No process yet; `logs` is created.
+    pub fn new(domain: u16, logs: &Path) -> Result<Self> {
+        std::fs::create_dir_all(logs).map_err(|source| Error::Log { path: logs.to_owned(), source })?;
+        Ok(Self { domain, logs: logs.to_owned(), cwd: None, procs: Vec::new() })
+    }
+
+    /// Processes start in `dir` (e.g. the repository root, where the config paths are relative
+    /// to); by default in the caller's working directory.
+    pub fn with_working_dir(mut self, dir: &Path) -> Self {
+        self.cwd = Some(dir.to_owned());
+        self
+    }
+
+    /// The DDS domain id.
+    pub fn domain(&self) -> u16 {
+        self.domain
+    }
+
+    /// The log directory.
+    pub fn log_dir(&self) -> &Path {
+        &self.logs
+    }
+
+    /// Starts `program` with `args` as node `name`, logging to `<logs>/<name>.log` (a name
+    /// started twice overwrites its log).
+    pub fn spawn<S: AsRef<OsStr>>(&mut self, name: &str, program: &Path, args: &[S]) -> Result<()> {
+        let log = self.log_path(name);
+        let out = File::create(&log).map_err(|source| Error::Log { path: log.clone(), source })?;
+        let err = out.try_clone().map_err(|source| Error::Log { path: log.clone(), source })?;
+        let mut cmd = Command::new(program);
+        cmd.args(args)
+            .env("ROS_DOMAIN_ID", self.domain.to_string())
+            .stdin(Stdio::null())
+            .stdout(out)
+            .stderr(err);
+        if let Some(dir) = &self.cwd {
+            cmd.current_dir(dir);
+        }
+        let child = cmd
+            .spawn()
+            .map_err(|source| Error::Spawn { name: name.to_owned(), program: program.to_owned(), source })?;
+        self.procs.push(Proc { name: name.to_owned(), child, log });
+        Ok(())
+    }
+
+    /// `<logs>/<name>.log`.
+    pub fn log_path(&self, name: &str) -> PathBuf {
+        self.logs.join(format!("{name}.log"))
+    }
+
+    /// The log of `name` so far (empty when it has none).
+    pub fn log(&self, name: &str) -> String {
+        std::fs::read_to_string(self.log_path(name)).unwrap_or_default()
+    }
+
+    /// Names and process ids of the running processes.
+    pub fn pids(&self) -> Vec<(String, u32)> {
+        self.procs.iter().map(|p| (p.name.clone(), p.child.id())).collect()
+    }
+
+    /// The first process that has exited, with its status and the last 15 lines of its log.
+    pub fn exited(&mut self) -> Option<Error> {
+        for p in &mut self.procs {
+            if let Ok(Some(status)) = p.child.try_wait() {
+                return Some(Error::Exited {
+                    name: p.name.clone(),
+                    status: describe(status),
+                    log: p.log.clone(),
+                    tail: tail(&std::fs::read_to_string(&p.log).unwrap_or_default(), 15),
+                });
+            }
+        }
+        None
+    }
+
+    /// `Err` naming the first process that exited.
+    pub fn check_alive(&mut self) -> Result<()> {
+        self.exited().map_or(Ok(()), Err)
+    }
+
+    /// Stops one process by name (SIGINT, SIGKILL after [`STOP_GRACE_S`]); `false` when no
+    /// process has that name.
+    pub fn stop_one(&mut self, name: &str) -> bool {
+        let Some(i) = self.procs.iter().position(|p| p.name == name) else { return false };
+        let mut p = self.procs.remove(i);
+        interrupt(&mut p);
+        reap(&mut p, Instant::now() + Duration::from_secs_f64(STOP_GRACE_S));
+        true
+    }
+
+    /// Stops every process: SIGINT to all, then SIGKILL to those still running after
+    /// [`STOP_GRACE_S`].
+    pub fn stop(&mut self) {
+        for p in &mut self.procs {
+            interrupt(p);
+        }
+        let deadline = Instant::now() + Duration::from_secs_f64(STOP_GRACE_S);
+        for p in &mut self.procs {
+            reap(p, deadline);
+        }
+        self.procs.clear();
+    }
+}
+
+impl Drop for Graph {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+fn interrupt(p: &mut Proc) {
+    if matches!(p.child.try_wait(), Ok(None))
+        && let Ok(pid) = i32::try_from(p.child.id())
+    {
+        let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), nix::sys::signal::Signal::SIGINT);
+    }
+}
+
+fn reap(p: &mut Proc, deadline: Instant) {
+    loop {
+        match p.child.try_wait() {
+            Ok(Some(_)) | Err(_) => return,
+            Ok(None) if Instant::now() >= deadline => {
+                tracing::warn!("{} did not stop within {STOP_GRACE_S} s of SIGINT; killing it", p.name);
+                let _ = p.child.kill();
+                let _ = p.child.wait();
+                return;
+            }
+            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+        }
+    }
+}
+
+fn describe(status: ExitStatus) -> String {
+    status.to_string()
+}
+
+/// The last `n` lines of `text`.
+pub fn tail(text: &str, n: usize) -> String {
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(n)..].join("\n")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sh() -> PathBuf {
+        PathBuf::from("/bin/sh")
+    }
+
+    #[test]
+    fn a_process_that_dies_is_named_with_its_status_and_log() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut g = Graph::new(7, dir.path()).unwrap();
+        g.spawn("sleeper", &sh(), &["-c", "exec sleep 30"]).unwrap();
+        g.spawn("crasher", &sh(), &["-c", "echo \"domain $ROS_DOMAIN_ID\"; echo boom >&2; exit 3"]).unwrap();
+        let until = Instant::now() + Duration::from_secs(10);
+        let err = loop {
+            if let Some(e) = g.exited() {
+                break e;
+            }
+            assert!(Instant::now() < until, "the crash was not seen");
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        let text = err.to_string();
+        assert!(text.starts_with("crasher exited"), "{text}");
+        assert!(text.contains('3') && text.contains("boom") && text.contains("domain 7"), "{text}");
+        g.stop();
+        assert!(g.pids().is_empty());
+    }
+
+    #[test]
+    fn stop_kills_a_process_that_ignores_sigint() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut g = Graph::new(7, dir.path()).unwrap();
+        g.spawn("stubborn", &sh(), &["-c", "trap '' INT; exec sleep 60"]).unwrap();
+        g.spawn("polite", &sh(), &["-c", "exec sleep 60"]).unwrap();
+        std::thread::sleep(Duration::from_millis(200));
+        let t = Instant::now();
+        assert!(g.stop_one("polite"));
+        assert!(t.elapsed() < Duration::from_secs(3), "SIGINT stopped the polite one at once");
+        assert!(!g.stop_one("polite"));
+        let t = Instant::now();
+        g.stop();
+        let took = t.elapsed().as_secs_f64();
+        assert!((STOP_GRACE_S - 0.5..STOP_GRACE_S + 5.0).contains(&took), "killed after the grace period: {took} s");
+        assert!(g.check_alive().is_ok());
+    }
+
+    #[test]
+    fn a_missing_binary_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut g = Graph::new(7, dir.path()).unwrap();
+        let e = g.spawn::<&str>("ghost", Path::new("/no/such/bin"), &[]).unwrap_err().to_string();
+        assert!(e.contains("ghost") && e.contains("/no/such/bin"), "{e}");
+    }
+
+    #[test]
+    fn private_domains_stay_in_their_range() {
+        for k in 0..500 {
+            assert!((120..220).contains(&private_domain(120, 100, k)));
+        }
+        assert_eq!(private_domain(5, 0, 9), 5);
+    }
+}
