@@ -32,9 +32,10 @@ fi
 cargo build --release --locked --bins --examples 2>&1 | tail -n 1
 rm -rf "$out"
 mkdir -p "$out"
-# 8 simulated seconds, clock as fast as the machine goes: the person walks in, fDED, the
-# observer and the controller run; the trial ends on its time limit (that is expected here).
-"$target/release/cowork" experiment stacking-hri --trials 1 --seed 2 --max --time-limit 8 \
+# 8 simulated seconds in real time (--max would outrun the controller, which then holds): the
+# person walks in, fDED, the observer and the controller run; the trial ends on its time limit
+# (that is expected here).
+"$target/release/cowork" experiment stacking-hri --trials 1 --seed 2 --rate 1 --time-limit 8 \
   --bin-dir "$target/release" --logs "$out/logs" --json "$out/run.json" --report "$out/report" \
   > "$out/experiment.txt" 2>&1 || { cat "$out/experiment.txt"; echo "check_report: the experiment failed to run"; exit 1; }
 tail -n 3 "$out/experiment.txt"

@@ -57,7 +57,9 @@ pub struct ExperimentArgs {
     /// Simulated seconds per wall-clock second.
     #[arg(long, default_value_t = 1.0, conflicts_with = "max")]
     pub rate: f64,
-    /// Run the simulated clock as fast as possible.
+    /// Run the simulated clock as fast as possible: a plumbing check only. The controller
+    /// cannot follow a clock that outruns it, so its watchdog holds the arm on joint states
+    /// stamped in its future; trials run this way say nothing about the robot's behaviour.
     #[arg(long)]
     pub max: bool,
     /// A trial still running after this many simulated seconds fails.
@@ -100,6 +102,12 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     }
     if !args.max && !(args.rate.is_finite() && args.rate > 0.0) {
         bail!("--rate {} must be > 0", args.rate);
+    }
+    if args.max {
+        eprintln!(
+            "note: --max runs the clock faster than the controller can follow (it holds the arm): \
+             a plumbing check, not a measurement"
+        );
     }
     let distance = DistanceMethod::parse(&args.distance)
         .with_context(|| format!("--distance {:?}: must be fded or flacco", args.distance))?;
