@@ -18,9 +18,11 @@ $cw experiment pouring --trials 1 --seed 1 --json out/demo/pouring.json --logs o
 echo "  (JSON: out/demo/pouring.json; taught once for graph.sh --execute: launch_scripts/teach.sh)"
 
 export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( 30 + RANDOM % 60 ))}"
-logs=out/logs
+logs=out/demo/graph/logs
+# A fresh teaching state: what an earlier run taught (out/) must not change what the demo shows.
+rm -rf out/demo/graph
 echo "== starting the graph on ROS_DOMAIN_ID=$ROS_DOMAIN_ID (logs in $logs/)"
-launch_scripts/graph.sh --logs "$logs" &
+launch_scripts/graph.sh --logs "$logs" --state out/demo/graph &
 graph=$!
 # TERM, not INT: a background job of a non-interactive shell ignores SIGINT.
 trap 'kill -TERM $graph 2>/dev/null || true; wait $graph 2>/dev/null || true' EXIT

@@ -2,15 +2,16 @@
 # Start the cowork graph: every node a separate process, talking DDS on loopback.
 #
 #   launch_scripts/graph.sh [--rate R | --max] [--duration S] [--logs DIR] [--scene FILE]
-#                           [--execute TASK [--learned DIR]] [--teach TASK]
+#                           [--execute TASK [--learned DIR]] [--teach TASK] [--state DIR]
 #
 # --execute TASK: the robot carries out TASK (pourDrink, prepareCoffee, ...) with what was learned
 #   in DIR (default config/learned, written by launch_scripts/teach.sh): the LTM
 #   DIR/kitchen.learned.schema and a copy of the primitive database DIR/primitives (DIR itself
 #   is never written). Steer it with `cowork say stop|repeat|human add(water)`.
 # Otherwise (teaching, --teach TASK, default pourDrink): the supervisor allocates TASK from
-#   out/kitchen.learned.schema when teaching has written one, else from
-#   config/tasks/kitchen.schema; what it learns is saved to out/ again.
+#   STATE/kitchen.learned.schema when teaching has written one, else from
+#   config/tasks/kitchen.schema; what it learns (LTM, STATE/primitives) is saved to STATE again
+#   (--state DIR, default out; a fresh DIR starts from the bundled schema).
 # Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every node cleanly.
 # Nodes run from target/release; build first with `cargo build --release --bins`.
 set -euo pipefail
@@ -23,6 +24,7 @@ scene=config/scenes/kitchen.yaml
 task=pourDrink
 execute=
 learned_dir=config/learned
+state_dir=out
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rate) rate_args=(--rate "$2"); shift 2 ;;
@@ -33,7 +35,8 @@ while [[ $# -gt 0 ]]; do
     --execute) task="$2"; execute=1; shift 2 ;;
     --teach) task="$2"; execute=; shift 2 ;;
     --learned) learned_dir="$2"; shift 2 ;;
-    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
+    --state) state_dir="$2"; shift 2 ;;
+    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
     *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -53,8 +56,9 @@ if [[ -n $execute ]]; then
   rm -rf out/execute && mkdir -p out/execute && cp -r "$learned_dir/primitives" "$database"
 else
   # A restart keeps what was taught: the learned LTM when there is one.
-  database=out/primitives
-  save_ltm=out/kitchen.learned.schema
+  database=$state_dir/primitives
+  save_ltm=$state_dir/kitchen.learned.schema
+  mkdir -p "$state_dir"
   ltm=config/tasks/kitchen.schema
   [[ -f $save_ltm ]] && ltm=$save_ltm
 fi
