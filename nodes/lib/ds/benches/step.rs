@@ -83,5 +83,33 @@ fn bench(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench);
+/// One task transition control step (Sec. 4.1.2) with a 20 N push on the elbow: the three
+/// stacks' task-priority IK and the weight update, to compare with the DS step above.
+fn bench_ttc(c: &mut Criterion) {
+    use cowork_ds::ttc::contact_point_at_link_end;
+    use cowork_ds::{Contact, Ttc, TtcConfig, TtcReport};
+    let urdf =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf");
+    let model = RobotModel::from_urdf_file(urdf).expect("LWR URDF loads");
+    let q = JointVector::from_row_slice(&[0.0, 0.6, 0.0, -1.3, 0.0, 0.7, 0.0]);
+    let mut poses = cowork_robot::LinkPoses::new();
+    model.forward_kinematics(&q, &mut poses);
+    let link = model.joint_link(3);
+    let contact = Contact {
+        link,
+        point: contact_point_at_link_end(&model, &poses, link),
+        force: Vector3::new(0.0, 20.0, 0.0),
+    };
+    let mut twist = cowork_ds::ik::Twist::zeros();
+    twist[1] = 0.1;
+    let mut ttc = Ttc::new(TtcConfig::default()).expect("config");
+    let mut report = TtcReport::default();
+    c.bench_function("ttc_step_contact", |b| {
+        b.iter(|| {
+            black_box(ttc.step(&model, &poses, model.tip_link(), black_box(&twist), Some(&contact), 1e-3, &mut report));
+        })
+    });
+}
+
+criterion_group!(benches, bench, bench_ttc);
 criterion_main!(benches);

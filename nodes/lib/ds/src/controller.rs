@@ -194,7 +194,7 @@ impl ControllerConfig {
             m.full_distance >= 0.0,
             "must be ≥ 0 m",
         )?;
-        if !(m.influence_distance > m.full_distance) {
+        if m.influence_distance.partial_cmp(&m.full_distance) != Some(std::cmp::Ordering::Greater) {
             return Err(Error::Config {
                 field: "modulation.influence_distance",
                 value: m.influence_distance,

@@ -6,7 +6,8 @@
 //! ([`modulation`], eq. 5.5–5.8, Algorithm 5). Multi-priority IK ([`ik`], eq. 5.13) turns it
 //! into joint rates, avoiding the closest link point in the null space, and saturates joint
 //! positions and speeds. [`DsController`] runs it all at 1 kHz with a stale-input watchdog and
-//! never allocates in [`DsController::step`]. No ROS dependency.
+//! never allocates in [`DsController::step`]. [`ttc`] is the task transition control of Sec.
+//! 4.1.2 (a person's physical guidance blended with the primitive by force). No ROS dependency.
 //!
 //! Frames and units: robot base frame, m, rad, s.
 //!
@@ -44,6 +45,7 @@ pub mod modulation;
 pub mod primitive;
 pub mod safety;
 pub mod scaling;
+pub mod ttc;
 
 pub use controller::{
     ControlInput, ControlOutput, ControllerConfig, Diagnostics, Distances, DsController,
@@ -53,3 +55,4 @@ pub use error::{Error, Fault, Result, Stream};
 pub use primitive::{FirstOrderDs, LearnedField, Primitive};
 pub use safety::{SafetyConfig, SafetyReport};
 pub use scaling::{HumanMode, HumanState};
+pub use ttc::{Contact, Stack, Ttc, TtcConfig, TtcReport};

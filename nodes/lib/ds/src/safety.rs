@@ -234,8 +234,7 @@ impl LinkSafety {
         let lambda2 = c.damping * c.damping;
         for _ in 0..c.iterations.max(1) {
             let mut changed = false;
-            for k in 0..n {
-                let j = &self.rows[k];
+            for (k, j) in self.rows.iter().enumerate().take(n) {
                 let deficit = self.bounds[k] - j.dot(qdot);
                 if deficit > 1e-9 {
                     *qdot += j * (deficit / (j.norm_squared() + lambda2));
