@@ -42,6 +42,13 @@ fn main() -> Result<()> {
     params
         .validate(&args.params.display().to_string())
         .with_context(|| format!("invalid parameters in {}", args.params.display()))?;
+    if let Some(path) = &args.save_ltm {
+        // A save killed half-way (kill -9) leaves its temporary file; the LTM itself is intact.
+        match cowork_store::remove_orphan_temporaries(path) {
+            Ok(removed) => removed.iter().for_each(|p| tracing::info!("removed {} (left by a save that was killed)", p.display())),
+            Err(e) => tracing::warn!("{e}"),
+        }
+    }
     let ltm = Ltm::load(&args.ltm).with_context(|| format!("cannot load the LTM {}", args.ltm.display()))?;
     let supervisor = Supervisor::new(ltm, &args.task, params.attention.clone())
         .with_context(|| format!("cannot allocate task {} from {}", args.task, args.ltm.display()))?;

@@ -153,11 +153,19 @@ pub struct RobotManagerNode {
 }
 
 impl RobotManagerNode {
-    /// Loads the database of `params.manager.robot` from `params.database_dir`. A database file
+    /// Loads the database of `params.manager.robot` from `params.database_dir` (removing the
+    /// temporary files of saves that were killed). A database file
     /// that does not load is moved aside to `<file>.corrupt-<unix s>` (so nothing learned is
     /// lost) and the node starts empty; the error says why, naming the file and field.
     pub fn new(params: Params, unix_s: u64) -> (Self, Option<String>) {
         let db_path = Database::path(Path::new(&params.database_dir), &params.manager.robot);
+        // A save killed half-way (kill -9) leaves its temporary file; the database is intact.
+        match cowork_store::remove_orphan_temporaries(&db_path) {
+            Ok(removed) => {
+                removed.iter().for_each(|p| tracing::info!("removed {} (left by a save that was killed)", p.display()))
+            }
+            Err(e) => tracing::warn!("{e}"),
+        }
         let mut problem = None;
         let db = match Database::load_or_new(&db_path, &params.manager.robot) {
             Ok(db) if db.robot == params.manager.robot => db,
