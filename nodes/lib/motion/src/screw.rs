@@ -324,13 +324,16 @@ pub fn ds_reconstruct(inv: &DsInvariants, dt: f64) -> (Vec<Vector3<f64>>, Vec<Ve
     (vs, ws)
 }
 
+/// Linear and angular velocities of a sampled motion, one vector per interval.
+pub type VelocityPairs = (Vec<Vector3<f64>>, Vec<Vector3<f64>>);
+
 /// Spatial twists of a pose trajectory sampled every `dt` s: `(v_t, ω_t) = log(T_{t+1} T_t⁻¹)/dt`,
 /// so that `T_{t+1} = exp((ω_t, v_t) dt) T_t` exactly. `N` poses give `N − 1` twists.
 pub fn spatial_twists_from_poses(
     p: &[Vector3<f64>],
     r: &[Rotation3<f64>],
     dt: f64,
-) -> Result<(Vec<Vector3<f64>>, Vec<Vector3<f64>>)> {
+) -> Result<VelocityPairs> {
     check_dim("orientations vs positions", p.len(), r.len())?;
     if !(dt > 0.0) || !dt.is_finite() {
         return Err(crate::error::invalid("dt", "must be finite and > 0"));
