@@ -624,6 +624,41 @@ impl HmmPrimitive {
         }
         self.temporal_terms(&seqs, &weights)
     }
+
+    /// [`refine`](Self::refine) for a correction that began `t_contact` s into `demo` (thesis
+    /// Sec. 4.1.3: "the first seconds of the motion primitive, before the interaction, are left
+    /// unchanged"): the states whose Viterbi run in `demo` (under the current model) ends before
+    /// the contact keep their parameters (output, temporal terms, transitions, duration); the
+    /// others are refined. Returns how many states were kept.
+    pub fn refine_after(&mut self, demo: &Demonstration, t_contact: f64) -> Result<usize> {
+        check_dim("HMM refinement demonstration", self.dim, demo.dim)?;
+        if !t_contact.is_finite() {
+            return Err(invalid("t_contact", "must be finite"));
+        }
+        let old = self.clone();
+        let q = self.viterbi(&demo.pos)?;
+        let t0 = demo.t.first().copied().unwrap_or(0.0);
+        let mut last_index = vec![None; self.l()];
+        for (k, &state) in q.iter().enumerate() {
+            last_index[state] = Some(k);
+        }
+        let kept: Vec<usize> = (0..self.l())
+            .filter(|&i| last_index[i].is_some_and(|k| demo.t[k] - t0 < t_contact))
+            .collect();
+        self.refine(demo)?;
+        let l = self.l();
+        for &i in &kept {
+            self.states[i] = old.states[i].clone();
+            self.trans[i * l..(i + 1) * l].copy_from_slice(&old.trans[i * l..(i + 1) * l]);
+            self.durations[i] = old.durations[i];
+            self.prior[i] = old.prior[i];
+        }
+        let ps: f64 = self.prior.iter().sum();
+        if ps > 0.0 {
+            self.prior.iter_mut().for_each(|p| *p /= ps);
+        }
+        Ok(kept.len())
+    }
 }
 
 #[cfg(test)]
@@ -678,6 +713,29 @@ mod tests {
             })
             .fold(0.0, f64::max);
         assert!(max_step < 0.1, "{max_step}");
+    }
+
+    #[test]
+    fn refinement_after_a_contact_keeps_the_states_before_it() {
+        let cfg = HmmConfig { states: 6, forgetting: 0.6, ..Default::default() };
+        let mut hmm = HmmPrimitive::fit(&[demo(1.0)], &cfg).expect("fit");
+        let old = hmm.clone();
+        // The same motion until 0.75 s, then bent away.
+        let base = demo(1.0);
+        let pos: Vec<f64> = base
+            .t
+            .iter()
+            .zip(base.pos.chunks(2))
+            .flat_map(|(t, p)| [p[0] + 0.5 * (t - 0.75).max(0.0), p[1]])
+            .collect();
+        let bent = Demonstration::new(2, base.t.clone(), pos, None).expect("demo");
+        let kept = hmm.refine_after(&bent, 0.75).expect("refine");
+        assert!((2..6).contains(&kept), "{kept} states kept");
+        for i in 0..kept {
+            assert_eq!(hmm.states[i], old.states[i], "state {i} before the contact");
+        }
+        assert!((kept..6).any(|i| hmm.states[i].mean != old.states[i].mean), "the states after it follow the correction");
+        assert!(hmm.refine_after(&bent, f64::NAN).is_err());
     }
 
     #[test]
