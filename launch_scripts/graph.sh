@@ -3,6 +3,7 @@
 #
 #   launch_scripts/graph.sh [--rate R | --max] [--duration S] [--logs DIR] [--scene FILE]
 #                           [--execute TASK [--learned DIR]] [--teach TASK] [--state DIR]
+#                           [--bridge [--bridge-port PORT]]
 #
 # --execute TASK: the robot carries out TASK (pourDrink, prepareCoffee, ...) with what was learned
 #   in DIR (default config/learned, written by launch_scripts/teach.sh): the LTM
@@ -12,6 +13,8 @@
 #   STATE/kitchen.learned.schema when teaching has written one, else from
 #   config/tasks/kitchen.schema; what it learns (LTM, STATE/primitives) is saved to STATE again
 #   (--state DIR, default out; a fresh DIR starts from the bundled schema).
+# --bridge: also `cowork bridge` (Foxglove WebSocket, ws://localhost:8765 or --bridge-port):
+#   open it in the Foxglove app with the layout config/foxglove-layout.json.
 # Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every node cleanly.
 # Nodes run from target/release; build first with `cargo build --release --bins`.
 set -euo pipefail
@@ -25,6 +28,8 @@ task=pourDrink
 execute=
 learned_dir=config/learned
 state_dir=out
+bridge=
+bridge_port=8765
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rate) rate_args=(--rate "$2"); shift 2 ;;
@@ -36,13 +41,15 @@ while [[ $# -gt 0 ]]; do
     --teach) task="$2"; execute=; shift 2 ;;
     --learned) learned_dir="$2"; shift 2 ;;
     --state) state_dir="$2"; shift 2 ;;
-    -h|--help) sed -n '2,18p' "$0"; exit 0 ;;
+    --bridge) bridge=1; shift ;;
+    --bridge-port) bridge=1; bridge_port="$2"; shift 2 ;;
+    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
     *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
 
 bin=target/release
-for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controller robot_manager; do
+for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controller robot_manager ${bridge:+cowork}; do
   [[ -x $bin/$b ]] || { echo "graph.sh: $bin/$b missing; run: cargo build --release --bins" >&2; exit 1; }
 done
 mkdir -p "$logs"
@@ -100,6 +107,11 @@ start ds_controller $bin/ds_controller --params config/ds_controller.yaml --use-
 start robot_manager $bin/robot_manager --params config/robot_manager.yaml --use-sim-time --database-dir "$database"
 echo "supervisor: task $task from $ltm${execute:+ (executing)}"
 start attentional_supervisor $bin/attentional_supervisor --ltm "$ltm" --task "$task" --use-sim-time --save-ltm "$save_ltm"
+if [[ -n $bridge ]]; then
+  # Live view: every topic over the Foxglove WebSocket protocol, stamped with the graph's /clock.
+  start cowork_bridge $bin/cowork bridge --port "$bridge_port" --use-sim-time
+  echo "Foxglove: open ws://localhost:$bridge_port (layout: config/foxglove-layout.json)"
+fi
 
 # Wait until any node exits (e.g. --duration reached) or a signal arrives.
 wait -n "${pids[@]}" || true

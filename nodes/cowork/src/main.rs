@@ -55,6 +55,8 @@ enum Command {
     Teach(cmd::teach::TeachArgs),
     /// Thesis experiments in the whole graph (node processes over DDS, sim clock); JSON, bags.
     Experiment(cmd::experiment::ExperimentArgs),
+    /// Foxglove WebSocket view of the live graph (ws://localhost:8765): every topic, ros2msg + cdr.
+    Bridge(cmd::bridge::BridgeArgs),
     /// Report (index.html + PNG plots) of recorded experiment runs.
     Report(cmd::report::ReportArgs),
     /// Benchmarks that print tables.
@@ -84,10 +86,15 @@ enum BenchCommand {
     Gestures(cmd::observe::BenchGesturesArgs),
 }
 
-fn main() -> Result<()> {
+fn main() -> std::process::ExitCode {
     cowork_ros::init_logging();
     let cli = Cli::parse();
-    match cli.command {
+    // One line `error: ...` with the context chain; a backtrace only with RUST_BACKTRACE=1.
+    cowork_ros::exit_code(run(cli.command))
+}
+
+fn run(command: Command) -> Result<()> {
+    match command {
         Command::Robot(c) => cmd::robot::run(c),
         Command::Say(a) => cmd::say::run(a),
         Command::Topic(c) => cmd::topic::run(c),
@@ -101,6 +108,7 @@ fn main() -> Result<()> {
         Command::Experiment(a) => cmd::experiment::run(a),
         Command::Teach(a) => cmd::teach::run(a),
         Command::Report(a) => cmd::report::run(a),
+        Command::Bridge(a) => cmd::bridge::run(&a),
         Command::Bench(BenchCommand::Lasa(a)) => cmd::bench_lasa::run(a),
         Command::Bench(BenchCommand::Fded(a)) => cmd::fded::bench(a),
         Command::Bench(BenchCommand::Control(a)) => cmd::bench_control::run(a),

@@ -28,9 +28,16 @@ struct Args {
     duration: Option<f64>,
 }
 
-fn main() -> Result<()> {
+/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
+fn main() -> std::process::ExitCode {
+    cowork_ros::exit_code(run())
+}
+
+fn run() -> Result<()> {
     cowork_ros::init_logging();
-    let args = Args::parse();
+    let mut args = Args::parse();
+    // `config/...` defaults resolve to the bundled config directory from any working directory.
+    args.urdf = cowork_ros::config::resolve(&args.urdf);
     let mut params: Params = cowork_ros::params::load(&args.params, "ds_controller")?;
     params.use_sim_time |= args.use_sim_time;
     params

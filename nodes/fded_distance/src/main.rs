@@ -33,7 +33,12 @@ struct Args {
     duration: Option<f64>,
 }
 
-fn main() -> Result<()> {
+/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
+fn main() -> std::process::ExitCode {
+    cowork_ros::exit_code(run())
+}
+
+fn run() -> Result<()> {
     cowork_ros::init_logging();
     let args = Args::parse();
     let place = args.params.display().to_string();
@@ -48,6 +53,7 @@ fn main() -> Result<()> {
     if let Some(m) = &args.method {
         params.method = m.clone();
     }
+    params.urdf = cowork_ros::config::resolve(&params.urdf).display().to_string();
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     let model = RobotModel::from_urdf_file(&params.urdf)
         .with_context(|| format!("cannot load robot description {}", params.urdf))?;

@@ -38,9 +38,17 @@ struct Args {
     follow_wrench_stamps: bool,
 }
 
-fn main() -> Result<()> {
+/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
+fn main() -> std::process::ExitCode {
+    cowork_ros::exit_code(run())
+}
+
+fn run() -> Result<()> {
     cowork_ros::init_logging();
-    let args = Args::parse();
+    let mut args = Args::parse();
+    // `config/...` defaults resolve to the bundled config directory from any working directory.
+    args.urdf = cowork_ros::config::resolve(&args.urdf);
+    args.scene = cowork_ros::config::resolve(&args.scene);
     let config: LwrSimConfig = cowork_ros::params::load(&args.params, "lwr_sim")?;
     config
         .validate(&args.params.display().to_string())

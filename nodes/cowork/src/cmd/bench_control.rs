@@ -100,7 +100,7 @@ pub fn run(args: BenchControlArgs) -> Result<()> {
     if args.steps == 0 {
         bail!("--steps must be positive");
     }
-    let model = RobotModel::from_urdf_file(&args.urdf)
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve(&args.urdf))
         .with_context(|| format!("cannot load robot description {}", args.urdf.display()))?;
     let cases = cases(&model, args.steps);
     println!("DsController::step on {} ({} steps per case after 1000 warm-up steps)", model.name(), args.steps);

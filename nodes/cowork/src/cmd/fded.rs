@@ -299,7 +299,7 @@ fn scene_pose(path: Option<&Path>) -> Result<Option<Isometry3<f64>>> {
 }
 
 fn run_bag(a: RunArgs) -> Result<()> {
-    let model = RobotModel::from_urdf_file(&a.urdf).with_context(|| format!("loading {}", a.urdf.display()))?;
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve(&a.urdf)).with_context(|| format!("loading {}", a.urdf.display()))?;
     let mut params = load_params(a.params.as_deref())?;
     params.tile_size = a.ts;
     params.step_x = a.step;
@@ -325,10 +325,15 @@ fn run_bag(a: RunArgs) -> Result<()> {
     let mut engine: Option<(Intrinsics, FdedEngine)> = None;
     let mut out = None;
     let (mut frames, mut times) = (0usize, Vec::new());
+    let depth_frames = BagReader::open(&a.bag)
+        .map(|r| r.info().topics.iter().filter(|t| t.topic == a.depth_topic).map(|t| t.message_count).sum())
+        .unwrap_or(0);
+    let bar = super::observe::progress(depth_frames, "fded");
     let skipped = for_each_frame(&a.bag, &model, &src, |f| {
+        bar.inc(1);
         if engine.as_ref().is_none_or(|(k, _)| *k != f.intrinsics) {
             let e = FdedEngine::new(&model, &f.intrinsics, params.clone(), request).context("starting fDED")?;
-            eprintln!("fDED backend: {}", e.backend_name());
+            bar.suspend(|| eprintln!("fDED backend: {}", e.backend_name()));
             out = Some(e.new_output());
             engine = Some((f.intrinsics, e));
         }
@@ -365,6 +370,7 @@ fn run_bag(a: RunArgs) -> Result<()> {
         }
         Ok(true)
     })?;
+    bar.finish_and_clear();
     csv.flush().with_context(|| format!("writing {}", a.out.display()))?;
     skipped.report();
     if frames == 0 {
@@ -412,7 +418,7 @@ fn bag_scene(path: &Path, model: &RobotModel, scene: Option<&Path>, max: usize) 
 
 /// `cowork bench fded`.
 pub fn bench(a: BenchFdedArgs) -> Result<()> {
-    let model = RobotModel::from_urdf_file(&a.urdf).with_context(|| format!("loading {}", a.urdf.display()))?;
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve(&a.urdf)).with_context(|| format!("loading {}", a.urdf.display()))?;
     let scene = match &a.bag {
         Some(p) => bag_scene(p, &model, a.scene.as_deref(), a.frames.max(1))?,
         None => bench::static_scene(&model, a.frames.max(1), a.seed).context("rendering the static scene")?,

@@ -139,7 +139,10 @@ pub fn run(cmd: LearnCommand) -> Result<()> {
             if let Some(b) = basis {
                 opts.dmp.n_basis = b;
             }
-            let m = Model::fit(model, &demos, &opts).context("fitting the model")?;
+            let bar = crate::cmd::observe::spinner("fitting");
+            let m = Model::fit(model, &demos, &opts).context("fitting the model");
+            bar.finish_and_clear();
+            let m = m?;
             m.save(&output)
                 .with_context(|| format!("writing {}", output.display()))?;
             eprintln!(

@@ -4,6 +4,8 @@ pub mod bag;
 pub mod bag_synth;
 pub mod bench_control;
 pub mod bench_lasa;
+pub mod bridge;
+pub mod bridge_stats;
 pub mod experiment;
 pub mod experiment_kitchen;
 pub mod fded;

@@ -91,12 +91,27 @@ pub struct BenchGesturesArgs {
     model: Option<PathBuf>,
 }
 
-fn progress(len: u64, what: &str) -> ProgressBar {
+/// A progress bar of `len` steps on stderr, drawn only when stderr is a terminal (indicatif
+/// hides it otherwise, so logs and pipes stay clean). Shared by the commands that take more
+/// than a few seconds.
+pub(crate) fn progress(len: u64, what: &str) -> ProgressBar {
     let bar = ProgressBar::new(len);
     if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed_precise} (eta {eta})") {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_message(what.to_owned());
+    bar
+}
+
+/// A spinner for work of unknown length (`what`, elapsed time, a message the caller updates),
+/// ticking on its own; hidden when stderr is not a terminal, as [`progress`].
+pub(crate) fn spinner(what: &str) -> ProgressBar {
+    let bar = ProgressBar::new_spinner();
+    if let Ok(style) = ProgressStyle::with_template("{spinner} {prefix} {elapsed_precise} {msg}") {
+        bar.set_style(style);
+    }
+    bar.set_prefix(what.to_owned());
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
     bar
 }
 
@@ -155,7 +170,10 @@ pub fn learn_gestures(a: LearnGesturesArgs) -> Result<()> {
         bail!("no {} labels in any bag: nothing to learn", a.label_topic);
     }
     let refs: Vec<&Stream> = streams.iter().collect();
-    let mut model = learn(&refs, config).context("learning the gesture templates")?;
+    let bar = spinner("learning gesture templates");
+    let model = learn(&refs, config).context("learning the gesture templates");
+    bar.finish_and_clear();
+    let mut model = model?;
     model.training.sources = a.bags.iter().map(|b| b.display().to_string()).collect();
     model.to_file(&a.output).with_context(|| format!("writing {}", a.output.display()))?;
     let t = &model.training;
@@ -184,8 +202,8 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
         params.gestures.clone_from(g);
     }
     params.validate(&place)?;
-    let model = RobotModel::from_urdf_file(&params.urdf).with_context(|| format!("loading {}", params.urdf))?;
-    let gestures = if params.gestures.is_empty() { None } else { Some(GestureModel::from_file(params.gestures.as_ref())?) };
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve(&params.urdf)).with_context(|| format!("loading {}", params.urdf))?;
+    let gestures = if params.gestures.is_empty() { None } else { Some(GestureModel::from_file(&cowork_ros::config::resolve(&params.gestures))?) };
     if gestures.is_none() {
         eprintln!("no gesture model: gestures are not recognised");
     }

@@ -25,7 +25,7 @@ pub struct ReportArgs {
 
 /// Judges every bag and writes the report.
 pub fn run(args: ReportArgs) -> Result<()> {
-    let model = RobotModel::from_urdf_file(&args.urdf)
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve(&args.urdf))
         .with_context(|| format!("cannot load robot description {}", args.urdf.display()))?;
     let mut trials = Vec::new();
     for bag in &args.bags {

@@ -46,7 +46,7 @@ pub fn run(cmd: RobotCommand) -> Result<()> {
 }
 
 fn fk(joints: &[f64], link: Option<&str>, urdf: &std::path::Path) -> Result<FkOutput> {
-    let model = RobotModel::from_urdf_file(urdf)
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve(urdf))
         .with_context(|| format!("cannot load robot description {}", urdf.display()))?;
     if joints.len() != DOF {
         bail!("--joints has {} values; the robot has {DOF} joints ({})", joints.len(), model.joint_names().join(", "));

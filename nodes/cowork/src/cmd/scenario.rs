@@ -53,7 +53,7 @@ pub fn run(args: ScenarioArgs) -> Result<()> {
         None => 10,
     };
     let sweep = take(&mut pairs, "sweep");
-    let model = RobotModel::from_urdf_file(&args.urdf)
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve(&args.urdf))
         .with_context(|| format!("cannot load robot description {}", args.urdf.display()))?;
 
     if let Some(spec) = sweep {

@@ -9,6 +9,7 @@
 //! - [`params::load`], the loader of ROS 2-shaped YAML parameter files;
 //! - [`graph`]: the nodes of the domain and a topic's publishers / subscriptions with their QoS
 //!   (`cowork node list`, `cowork topic info`);
+//! - [`config`]: the bundled `config/` directory from any working directory;
 //! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop;
 //! - [`raw`]: untyped publishers / subscriptions of serialised CDR payloads named only by their
 //!   type string (bag record and replay of types we do not know).
@@ -23,6 +24,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod config;
 pub mod graph;
 mod node;
 pub use node::{discovery_on_all_networks, domain_id_from_env};
@@ -175,5 +177,48 @@ mod rate_limiter_tests {
             l.warn(&format!("k{i}"), "flood");
         }
         assert!(l.last.len() <= RateLimiter::MAX_KINDS);
+    }
+}
+
+/// Ends a binary's `main` the way a user expects of a command: `Ok` → success; an error → one
+/// line `error: ...` on stderr with the whole context chain (`anyhow`'s `{:#}`: "reading
+/// config/x.yaml: ...: missing field"), exit status 1, and no backtrace unless asked for with
+/// `RUST_BACKTRACE=1` (then the multi-line report with its backtrace).
+///
+/// ```no_run
+/// fn main() -> std::process::ExitCode {
+///     cowork_ros::exit_code(run())
+/// }
+/// # fn run() -> anyhow::Result<()> { Ok(()) }
+/// ```
+pub fn exit_code(result: anyhow::Result<()>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            if backtrace_asked(std::env::var("RUST_BACKTRACE").ok().as_deref()) {
+                eprintln!("error: {e:?}");
+            } else {
+                eprintln!("error: {e:#}");
+            }
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+/// Whether a `RUST_BACKTRACE` value asks for backtraces (as std reads it: anything but `0`).
+fn backtrace_asked(value: Option<&str>) -> bool {
+    value.is_some_and(|v| v != "0")
+}
+
+#[cfg(test)]
+mod exit_code_tests {
+    use super::backtrace_asked;
+
+    #[test]
+    fn backtraces_only_when_asked() {
+        assert!(!backtrace_asked(None));
+        assert!(!backtrace_asked(Some("0")));
+        assert!(backtrace_asked(Some("1")));
+        assert!(backtrace_asked(Some("full")));
     }
 }

@@ -28,8 +28,11 @@ pub enum ParamsError {
     Invalid { path: String, node: String, message: String },
 }
 
-/// Loads the parameters of `node` from a ROS 2 parameter YAML file.
+/// Loads the parameters of `node` from a ROS 2 parameter YAML file. A relative
+/// `config/...` path that does not exist from the working directory is looked up in the
+/// bundled config directory ([`crate::config::resolve`]), so a node starts from anywhere.
 pub fn load<T: DeserializeOwned>(path: &Path, node: &str) -> Result<T, ParamsError> {
+    let path = &crate::config::resolve(path);
     let shown = path.display().to_string();
     let text = std::fs::read_to_string(path)
         .map_err(|source| ParamsError::Io { path: shown.clone(), source })?;

@@ -66,3 +66,9 @@ pub fn latched() -> QosProfile {
 pub fn best_effort_depth(depth: usize) -> QosProfile {
     QosProfile { history: History::KeepLast { depth }, ..sensor_data() }
 }
+
+/// Whether `qos` is transient local (a late subscriber gets the last messages: a latched
+/// topic such as `/robot_description`).
+pub fn is_latched(qos: &QosProfile) -> bool {
+    matches!(qos.durability, Durability::TransientLocal)
+}

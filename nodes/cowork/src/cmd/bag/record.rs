@@ -154,12 +154,15 @@ pub fn run(args: &RecordArgs) -> Result<()> {
         if named.is_empty() { "all topics".to_owned() } else { named.iter().cloned().collect::<Vec<_>>().join(" ") },
         args.output.display()
     );
+    let bar = crate::cmd::observe::spinner("recording");
     loop {
         let now = Instant::now();
         let stopping = shutdown::requested() || end.is_some_and(|e| now >= e);
         if now >= next_discovery && !stopping {
-            discover(&mut node, &named, depth, &mut recorded, &mut warned);
+            bar.suspend(|| discover(&mut node, &named, depth, &mut recorded, &mut warned));
             next_discovery = now + interval;
+            let (messages, bytes) = recorded.values().fold((0, 0), |(m, b), r| (m + r.messages, b + r.bytes));
+            bar.set_message(format!("{} topics, {messages} messages, {:.1} MB", recorded.len(), bytes as f64 / 1e6));
         }
         let mut got = 0usize;
         let mut writer_gone = false;
@@ -194,6 +197,7 @@ pub fn run(args: &RecordArgs) -> Result<()> {
             std::thread::sleep(Duration::from_micros(500));
         }
     }
+    bar.finish_and_clear();
     drop(to_writer);
     let elapsed = start.elapsed().as_secs_f64();
     let written = writer_thread

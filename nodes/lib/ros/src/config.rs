@@ -1,0 +1,126 @@
+//! Where the bundled `config/` directory is, so every binary finds its parameter files, the
+//! robot description and the task schemas from any working directory, as a ROS 2 package finds
+//! its `share/` directory.
+//!
+//! The lookup, first match wins:
+//! 1. `COWORK_CONFIG_DIR` (an error if it is set but is not a directory: a typo must not
+//!    silently pick another tree);
+//! 2. `config/` in the working directory (running from the repository root, as before);
+//! 3. next to the executable's workspace: `<exe>/../../config` (`target/release/NAME` or
+//!    `target/debug/NAME` of this repository; also `target/<triple>/release` two levels up) and
+//!    `<exe>/../share/cowork/config` (an install prefix: `PREFIX/bin/NAME`).
+//!
+//! [`resolve`] applies it to a path given on the command line: a path that exists as given,
+//! an absolute path, or one that does not start with `config/` is returned unchanged; otherwise
+//! `config/REST` becomes `<config dir>/REST`.
+//!
+//! ```no_run
+//! let urdf = cowork_ros::config::resolve("config/robot/lwr4plus.urdf");
+//! println!("{}", urdf.display());
+//! ```
+
+use std::path::{Path, PathBuf};
+
+/// The environment variable that names the config directory.
+pub const ENV: &str = "COWORK_CONFIG_DIR";
+
+/// A file every bundled config directory holds (how a candidate is recognised).
+const MARKER: &str = "robot/lwr4plus.urdf";
+
+/// Why no config directory was found.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigDirError {
+    /// `COWORK_CONFIG_DIR` is set but is not a directory.
+    #[error("{ENV}={path}: not a directory")]
+    EnvNotADirectory {
+        /// The value of the variable.
+        path: PathBuf,
+    },
+    /// No candidate holds the bundled files.
+    #[error(
+        "no cowork config directory found (looked in: {}); set {ENV} to the repository's config/ \
+         directory or run from the repository root",
+        .tried.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+    )]
+    NotFound {
+        /// Every directory looked at, in order.
+        tried: Vec<PathBuf>,
+    },
+}
+
+/// The directories looked at, in order, for an executable at `exe` and working directory
+/// `cwd` (without the environment variable).
+fn candidates(cwd: &Path, exe: Option<&Path>) -> Vec<PathBuf> {
+    let mut out = vec![cwd.join("config")];
+    if let Some(dir) = exe.and_then(Path::parent) {
+        // target/release/NAME → repository root; target/release/deps/NAME (tests) and
+        // target/<triple>/release/NAME one level more.
+        for up in [2usize, 3] {
+            if let Some(root) = dir.ancestors().nth(up) {
+                out.push(root.join("config"));
+            }
+        }
+        if let Some(prefix) = dir.parent() {
+            out.push(prefix.join("share/cowork/config"));
+        }
+    }
+    out
+}
+
+/// The config directory (see the module docs).
+pub fn config_dir() -> Result<PathBuf, ConfigDirError> {
+    if let Some(v) = std::env::var_os(ENV).filter(|v| !v.is_empty()) {
+        let path = PathBuf::from(v);
+        return if path.is_dir() { Ok(path) } else { Err(ConfigDirError::EnvNotADirectory { path }) };
+    }
+    let cwd = std::env::current_dir().unwrap_or_default();
+    let exe = std::env::current_exe().ok().map(|e| e.canonicalize().unwrap_or(e));
+    let tried = candidates(&cwd, exe.as_deref());
+    match tried.iter().find(|d| d.join(MARKER).is_file()) {
+        Some(d) => Ok(d.clone()),
+        None => Err(ConfigDirError::NotFound { tried }),
+    }
+}
+
+/// `path` with a leading `config/` mapped to the config directory when `path` does not exist
+/// as given (see the module docs). Without a config directory the path is returned unchanged,
+/// so the error the caller reports names the path the user gave.
+pub fn resolve(path: impl AsRef<Path>) -> PathBuf {
+    let path = path.as_ref();
+    if path.is_absolute() || path.exists() {
+        return path.to_path_buf();
+    }
+    match (path.strip_prefix("config"), config_dir()) {
+        (Ok(rest), Ok(dir)) => dir.join(rest),
+        _ => path.to_path_buf(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn candidates_cover_the_workspace_target_dir_and_an_install_prefix() {
+        let c = candidates(Path::new("/home/u"), Some(Path::new("/repo/target/release/lwr_sim")));
+        assert_eq!(c[0], Path::new("/home/u/config"));
+        assert!(c.contains(&PathBuf::from("/repo/config")), "{c:?}");
+        let c = candidates(Path::new("/x"), Some(Path::new("/opt/cowork/bin/cowork")));
+        assert!(c.contains(&PathBuf::from("/opt/cowork/share/cowork/config")), "{c:?}");
+    }
+
+    #[test]
+    fn paths_outside_config_and_absolute_paths_are_unchanged() {
+        assert_eq!(resolve("/abs/config/x.yaml"), Path::new("/abs/config/x.yaml"));
+        assert_eq!(resolve("out/missing.yaml"), Path::new("out/missing.yaml"));
+    }
+
+    #[test]
+    fn config_paths_resolve_to_the_bundled_directory_from_anywhere() {
+        // The test binary lives in target/<profile>/deps: its workspace's config/ is found
+        // whatever the working directory (cargo runs tests in the crate directory).
+        let urdf = resolve("config/robot/lwr4plus.urdf");
+        assert!(urdf.is_file(), "{}", urdf.display());
+    }
+}
