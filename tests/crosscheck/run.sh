@@ -36,6 +36,7 @@ else
   checks=(tests/crosscheck/check_*.sh)
 fi
 
+# check_stranger.sh (issue #19) is one of them: a foreign DDS peer attacks the running graph.
 passed=0
 failed=0
 failed_names=()

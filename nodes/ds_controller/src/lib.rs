@@ -14,6 +14,7 @@
 //! bad command is aborted with its reason and the robot held; bad distances (NaN, infinite,
 //! zero normal, unknown link) hold the robot with the reason until valid ones arrive.
 
+pub mod human;
 pub mod learned;
 pub mod scene;
 
@@ -578,7 +579,10 @@ pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunO
     let mut scene = SceneObjects::from_params(&params.scene_objects, &base_frame)?;
     let ctl = DsController::new(model, params.controller)
         .map_err(|e| anyhow::anyhow!("controller: {e}"))?;
-    let joint_sub = node.subscription::<JointState>("/joint_states", &qos::reliable())?;
+    // Best effort: a 1 kHz stream where only the newest sample counts. A reliable reader that
+    // stalls (a frozen process) makes lwr_sim's writes fail for every reader and silenced
+    // /joint_states graph-wide for ~20 s (tests/crosscheck/stranger.py chaos).
+    let joint_sub = node.subscription::<JointState>("/joint_states", &qos::best_effort_depth(100))?;
     let dist_sub = node.subscription::<LinkDistances>("/fded/distances", &qos::reliable())?;
     let human_sub = node.subscription::<HumanStateMsg>("/human/state", &qos::reliable())?;
     let cmd_sub = node.subscription::<MotionCommandMsg>("/motion/command", &qos::reliable_depth(10))?;
@@ -660,6 +664,7 @@ fn serve(
     let status_every = cowork_ros::duration_s(1.0 / params.status_rate_hz);
     let mut last_status: Option<(u32, u8, String)> = None;
     let mut last_status_at = Instant::now();
+    let mut human = crate::human::CautiousHuman::new(params.controller.stale_after_s, params.controller.future_tolerance_s);
     // The command that was aborted (id, reason): its statuses read ABORTED while it is current.
     let mut aborted: Option<(u32, String)> = None;
     // The damper's last limited link and when (node clock, s): reported for 0.2 s after.
@@ -728,7 +733,10 @@ fn serve(
             match adapter.human(&m) {
                 Ok(h) => {
                     let t = m.header.stamp.to_secs_f64();
-                    inputs.update(|i| i.human = HumanInput { stamp: t, state: h });
+                    // The most cautious live state, not the newest: another writer on the
+                    // topic can slow the robot but not hurry it (`human.rs`).
+                    let h = human.on_state(HumanInput { stamp: t, state: h }, node.now().to_secs_f64());
+                    inputs.update(|i| i.human = h);
                 }
                 Err(r) => tracing::warn!("/human/state rejected: {}", r.reason),
             }

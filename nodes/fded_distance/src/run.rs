@@ -47,7 +47,10 @@ struct Outputs {
 pub fn run(mut node: RosNode, fded: FdedNode, options: &RunOptions) -> Result<RunSummary> {
     let images = node.subscription::<Image>(TOPIC_DEPTH, &qos::sensor_data())?;
     let infos = node.subscription::<CameraInfo>(TOPIC_CAMERA_INFO, &qos::sensor_data())?;
-    let joints = node.subscription::<JointState>(TOPIC_JOINT_STATES, &qos::reliable())?;
+    // Best effort: a 1 kHz stream where only the newest sample counts. A reliable reader that
+    // stalls (a frozen process) makes lwr_sim's writes fail for every reader and silenced
+    // /joint_states graph-wide for ~20 s (tests/crosscheck/stranger.py chaos).
+    let joints = node.subscription::<JointState>(TOPIC_JOINT_STATES, &qos::best_effort_depth(100))?;
     let tf_static = node.subscription::<TFMessage>(TOPIC_TF_STATIC, &qos::latched())?;
     let manipulated = node.subscription::<ObjectStream>(TOPIC_MANIPULATED, &qos::reliable_depth(100))?;
     let outputs = Outputs {

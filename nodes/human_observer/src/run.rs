@@ -38,7 +38,10 @@ pub struct RunSummary {
 /// Runs the node until Ctrl-C, `options.stop` or `options.duration_s`.
 pub fn run(mut node: RosNode, mut observer: ObserverNode, options: &RunOptions) -> Result<RunSummary> {
     let skeletons = node.subscription::<Skeleton>(TOPIC_SKELETON, &qos::reliable())?;
-    let joints = node.subscription::<JointState>(TOPIC_JOINT_STATES, &qos::reliable())?;
+    // Best effort: a 1 kHz stream where only the newest sample counts. A reliable reader that
+    // stalls (a frozen process) makes lwr_sim's writes fail for every reader and silenced
+    // /joint_states graph-wide for ~20 s (tests/crosscheck/stranger.py chaos).
+    let joints = node.subscription::<JointState>(TOPIC_JOINT_STATES, &qos::best_effort_depth(100))?;
     let speech = node.subscription::<RosString>(TOPIC_SPEECH, &qos::reliable())?;
     let states = node.publisher::<HumanState>(TOPIC_STATE, &qos::reliable())?;
     let gestures = node.publisher::<Gesture>(TOPIC_GESTURE, &qos::reliable())?;
