@@ -45,11 +45,11 @@ impl CautiousHuman {
     /// kept, so it cannot pin the robot; with no live state, the one just received is used
     /// (the watchdog judges its age).
     pub fn on_state(&mut self, input: HumanInput, now: f64) -> HumanInput {
-        if !(input.stamp <= now + self.future_tolerance_s) {
+        if input.stamp > now + self.future_tolerance_s {
             return input;
         }
         let slot = &mut self.newest[caution(&input.state)];
-        if slot.is_none_or(|s| !(s.stamp > input.stamp)) {
+        if slot.is_none_or(|s| s.stamp <= input.stamp) {
             *slot = Some(input);
         }
         let lo = now - self.window_s;

@@ -224,7 +224,7 @@ impl Clock {
             ),
             Clock::Sim(ns) => {
                 let v = ns.load(Ordering::Acquire);
-                (v >= 0).then(|| v as f64 * 1e-9)
+                (v >= 0).then_some(v as f64 * 1e-9)
             }
         }
     }
@@ -684,10 +684,10 @@ fn serve(
         {
             return Ok(());
         }
-        if let Clock::Sim(ns) = clock {
-            if node.clock_started() {
-                ns.store(node.now().to_nanos(), Ordering::Release);
-            }
+        if let Clock::Sim(ns) = clock
+            && node.clock_started()
+        {
+            ns.store(node.now().to_nanos(), Ordering::Release);
         }
         // Ages are taken from the messages' header stamps (when the data was measured), not
         // from arrival: a frame delivered late is as old as it is.
@@ -785,10 +785,7 @@ fn serve(
         }
         // Outputs: wait briefly for the next one, then take all that are there; the newest
         // command wins.
-        let mut newest = match rx.recv_timeout(Duration::from_micros(500)) {
-            Ok(o) => Some(o),
-            Err(_) => None,
-        };
+        let mut newest = rx.recv_timeout(Duration::from_micros(500)).ok();
         loop {
             match rx.try_recv() {
                 Ok(o) => newest = Some(o),

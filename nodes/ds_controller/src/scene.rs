@@ -157,7 +157,8 @@ impl SceneObjects {
     pub fn mark(&self, d: &mut Distances) -> Option<usize> {
         d.scene_object = [false; cowork_robot::MAX_LINKS];
         let (t, objects) = self.world.as_ref()?;
-        if !((t - d.stamp).abs() <= self.max_age_s) {
+        let age = (t - d.stamp).abs();
+        if age.is_nan() || age > self.max_age_s {
             return None;
         }
         let mut n = 0;

@@ -442,7 +442,8 @@ fn bad_input_is_rejected_with_a_reason_and_the_robot_held() {
     // Fail closed on what used to read as "no obstacle" or as fresh: an empty distances
     // message, distances measured 0.5 s ago (delivered now), distances stamped 1 s in the
     // future (a clock that went back).
-    let cases: [(&str, fn(&Client) -> LinkDistances, &str); 3] = [
+    type Case = (&'static str, fn(&Client) -> LinkDistances, &'static str);
+    let cases: [Case; 3] = [
         ("empty", |c| LinkDistances { header: c.header(0.0), min_index: -1, ..Default::default() }, "one entry per link"),
         ("late", |c| c.distances_msg(None, -0.5), "exceeds"),
         ("future", |c| c.distances_msg(None, 1.0), "negative"),
