@@ -6,11 +6,14 @@
 #   launch_scripts/teach.sh [--out DIR]      (default: config/learned)
 #
 # Every demonstration is a kinesthetic bag (a scripted teacher pushing the arm with wrenches and
-# saying teach / done / gripper ...): bags/kinesthetic-pour.mcap is bundled; the others are
-# synthesised here with `cowork bag synth` (same seed, same bytes). Each task is taught by
-# `cowork teach` in the graph (lwr_sim, robot_manager, attentional_supervisor as processes over
-# DDS); the LTM of one task is the starting point of the next, so what was learned is reused.
-# The result replaces DIR only when every task was taught.
+# saying teach / done / gripper ...): bags/kinesthetic-pour.mcap is bundled (seed 1); add(coffee)
+# and use(spoon) are synthesised here with `cowork bag synth --seed 1 --after ...` (same seed,
+# same bytes), each starting where the previous demonstration left the arm and the objects.
+# prepareCoffee (Fig. 4.14, 5.19) is taught in one session by `cowork teach` in the graph
+# (lwr_sim, robot_manager, attentional_supervisor as processes over DDS): pour, coffee, spoon
+# one after the other, `teach` once, `done` once. Its add(water) is pourDrink's whole task, so
+# the one LTM executes both (graph.sh --execute pourDrink | prepareCoffee).
+# The result replaces DIR only when the task was taught completely.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -18,7 +21,7 @@ out=config/learned
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --out) out="$2"; shift 2 ;;
-    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
     *) echo "teach.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -29,10 +32,17 @@ work=$(mktemp -d "${TMPDIR:-/tmp}/cowork-teach.XXXXXX")
 trap 'rm -rf "$work"' EXIT
 mkdir -p "$work/learned"
 
-echo "== pourDrink from bags/kinesthetic-pour.mcap"
-"$cw" teach --task pourDrink --bag bags/kinesthetic-pour.mcap \
+echo "== synthesising add(coffee) and use(spoon) after bags/kinesthetic-pour.mcap (seed 1)"
+"$cw" bag synth kinesthetic-coffee -o "$work/kinesthetic-coffee.mcap" --seed 1 --no-depth \
+  --after kinesthetic-pour >/dev/null
+"$cw" bag synth kinesthetic-spoon -o "$work/kinesthetic-spoon.mcap" --seed 1 --no-depth \
+  --after kinesthetic-pour --after kinesthetic-coffee >/dev/null
+
+echo "== prepareCoffee from the three demonstrations"
+"$cw" teach --task prepareCoffee --bag bags/kinesthetic-pour.mcap \
+  --bag "$work/kinesthetic-coffee.mcap" --bag "$work/kinesthetic-spoon.mcap" \
   --ltm config/tasks/kitchen.schema --ltm-out "$work/learned/kitchen.learned.schema" \
-  --database-dir "$work/learned/primitives" --logs "$work/logs/pourDrink"
+  --database-dir "$work/learned/primitives" --logs "$work/logs/prepareCoffee"
 
 # Replace the old result in one step: a failed teaching above leaves it untouched.
 mkdir -p "$(dirname "$out")"

@@ -6,7 +6,7 @@ use std::path::Path;
 use cowork_sim::Simulator;
 
 use crate::streams::{Streams, Ticker, rates};
-use crate::Result;
+use crate::{Result, SynthError};
 
 /// Simulator + bag + the tickers of the common streams.
 pub(crate) struct Runner<'p> {
@@ -39,6 +39,14 @@ impl<'p> Runner<'p> {
         duration_s: f64,
         progress: &'p mut dyn FnMut(f64),
     ) -> Result<Self> {
+        // The plans and the streams are timed from 0: a simulator that already ran would play
+        // its plan from the middle (use `continue_from`).
+        if sim.time_ns() != 0 {
+            return Err(SynthError::Plan {
+                scenario: "synth",
+                reason: format!("the simulator is at t = {:.3} s, a bag starts at t = 0 (continue_from)", sim.time_ns() as f64 * 1e-9),
+            });
+        }
         let mut streams = Streams::create(path, &sim)?;
         streams.tf_static(0, &sim)?;
         let mut run = Self {

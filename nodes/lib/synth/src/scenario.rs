@@ -176,16 +176,19 @@ fn after_demonstrations(mut sim: Simulator, options: &SynthOptions, path: &Path)
         let mut run = Runner::new(sim, &scratch, natural * style.pace, &mut quiet)?;
         pour::run_pour(&mut run, &plan, options.seed, options.noise, |_| Ok(()))?;
         run.streams.finish()?;
-        sim = run.sim;
         let _ = std::fs::remove_file(&scratch);
-        if let Some(held) = sim.held_object() {
+        if let Some(held) = run.sim.held_object() {
             return Err(SynthError::Plan {
                 scenario: demo.scenario,
                 reason: format!("`{held}` is still held at the end of the demonstration; the next one cannot start"),
             });
         }
+        // Each demonstration's bag starts at t = 0 from where the previous one left the arm
+        // (as its own synthesis did); continuing the clock instead ran the path of the second
+        // one from its end, so a third demonstration started from the first one's end pose.
+        sim = continue_from(&run.sim)?;
     }
-    continue_from(&sim)
+    Ok(sim)
 }
 
 /// A fresh simulator (t = 0) whose scene is `sim`'s current state: the arm's joints as the

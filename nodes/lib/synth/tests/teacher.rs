@@ -1,10 +1,9 @@
 //! Teachers drawn per seed (`vary_teacher`) and demonstrations made one after the other
 //! (`after`): each bag, replayed into the simulator its predecessors left, still grasps its
 //! object, uses it at the cup and puts it back; different seeds give different demonstrations.
-//!
-//! Not yet covered: `kinesthetic-spoon` after add(water) and add(coffee) — started from where
-//! the coffee demonstration left the arm, the teacher's admittance path misses the spoon by
-//! 15 cm (the arm does not follow the planned tool path from that configuration).
+//! The three demonstrations of prepareCoffee in a row: the spoon's bag (after two others) used
+//! to start from where the *first* one left the arm (the second ran on a clock that had not
+//! been reset) and missed the spoon by 15 cm when replayed after the coffee's.
 
 use std::path::{Path, PathBuf};
 
@@ -49,6 +48,8 @@ fn teachers_differ_by_seed_and_each_demonstration_replays_after_the_previous_one
     let steps = [
         (Scenario::KinestheticPour, "bottle", 1.5),
         (Scenario::KinestheticCoffee, "coffee", 1.5),
+        // The spoon's bowl turned down into the cup: its z axis horizontal.
+        (Scenario::KinestheticSpoon, "spoon", 1.2),
     ];
     let mut lengths = Vec::new();
     for seed in [3u64, 8] {
