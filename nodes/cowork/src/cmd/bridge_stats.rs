@@ -10,7 +10,7 @@ use serde::Serialize;
 const MAX_LATENCIES: usize = 200_000;
 
 /// Running figures of one served topic.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct TopicStats {
     /// Messages forwarded (at least one client subscribed).
     pub forwarded: u64,
@@ -22,12 +22,6 @@ pub struct TopicStats {
     span: Option<(Instant, Instant)>,
     /// DDS receive → queued on the sockets, ns (the most recent [`MAX_LATENCIES`]).
     latencies_ns: VecDeque<u64>,
-}
-
-impl Default for TopicStats {
-    fn default() -> Self {
-        Self { forwarded: 0, bytes: 0, unsubscribed: 0, span: None, latencies_ns: VecDeque::new() }
-    }
 }
 
 impl TopicStats {

@@ -91,9 +91,13 @@ pub fn resolve(path: impl AsRef<Path>) -> PathBuf {
     if path.is_absolute() || path.exists() {
         return path.to_path_buf();
     }
-    match (path.strip_prefix("config"), config_dir()) {
-        (Ok(rest), Ok(dir)) => dir.join(rest),
-        _ => path.to_path_buf(),
+    let Ok(rest) = path.strip_prefix("config") else { return path.to_path_buf() };
+    match config_dir() {
+        Ok(dir) => dir.join(rest),
+        Err(e) => {
+            tracing::warn!("{}: not found from {}; {e}", path.display(), std::env::current_dir().unwrap_or_default().display());
+            path.to_path_buf()
+        }
     }
 }
 

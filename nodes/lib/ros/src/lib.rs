@@ -198,11 +198,29 @@ pub fn exit_code(result: anyhow::Result<()>) -> std::process::ExitCode {
             if backtrace_asked(std::env::var("RUST_BACKTRACE").ok().as_deref()) {
                 eprintln!("error: {e:?}");
             } else {
-                eprintln!("error: {e:#}");
+                eprintln!("error: {}", one_line(&e));
             }
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes on one line, `outer: inner: ...`, leaving out a cause whose text
+/// the line already holds (an error that prints its source, as `ParamsError::Io` does, would
+/// otherwise say it twice).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if out.contains(&text) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&text);
+    }
+    out
 }
 
 /// Whether a `RUST_BACKTRACE` value asks for backtraces (as std reads it: anything but `0`).
@@ -212,7 +230,15 @@ fn backtrace_asked(value: Option<&str>) -> bool {
 
 #[cfg(test)]
 mod exit_code_tests {
-    use super::backtrace_asked;
+    use super::{backtrace_asked, one_line};
+
+    #[test]
+    fn the_cause_chain_on_one_line_without_repeats() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file");
+        let e = anyhow::Error::new(crate::params::ParamsError::Io { path: "config/x.yaml".into(), source: io })
+            .context("starting lwr_sim");
+        assert_eq!(one_line(&e), "starting lwr_sim: cannot read parameter file config/x.yaml: No such file");
+    }
 
     #[test]
     fn backtraces_only_when_asked() {
