@@ -6,9 +6,17 @@
 //! with obstacle avoidance, robot_manager with the taught primitives, attentional_supervisor with
 //! the learned LTM) executes it with the objects moved, judged from `/lwr/world` only.
 //!
-//! `pouring`: the bottle at a random reachable spot of the table, clear of the other objects;
-//! success = the bottle was grasped, tilted more than 90° with its centre within 15 cm of the
-//! cup's, released upright on the table, and no other object moved more than 1 cm.
+//! `pouring` (pourDrink, Table 5.4): the bottle at a random reachable spot of the table, clear
+//! of the other objects; success = the bottle was grasped, tilted more than 90° with its centre
+//! within 15 cm of the cup's, released upright on the table, and no other object moved more
+//! than 1 cm.
+//!
+//! `coffee` (prepareCoffee, Table 5.5): the teacher shows add(water), add(coffee) and use(spoon)
+//! in one session (three synthesised demonstrations, each starting where the previous one left
+//! the arm, `--after`); executed with the bottle and the coffee jar at random spots; success =
+//! the bottle and the jar each grasped and tilted more than 90° over the cup, the spoon grasped
+//! and turned more than 60° (bowl down) with its centre within 15 cm of the cup's, all three put
+//! back upright on the table, nothing else moved more than 1 cm.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -26,14 +34,69 @@ use super::experiment::ExperimentArgs;
 use super::teach::{TeachSetup, Taught, teach};
 
 /// Kitchen experiments this runner knows.
-pub const NAMES: [&str; 1] = ["pouring"];
+pub const NAMES: [&str; 2] = ["pouring", "coffee"];
 
 /// Thesis Table 5.4 (pourDrink), means over ten trials: (subtask, teaching s, execution s).
 const THESIS_POURING: [(&str, f64, f64); 3] = [("take(water)", 20.1, 31.0), ("pour(water)", 30.3, 46.5), ("pourDrink", 50.4, 77.5)];
 
+/// Thesis Table 5.5 (prepareCoffee), means over ten trials: (subtask, teaching s, execution s).
+const THESIS_COFFEE: [(&str, f64, f64); 10] = [
+    ("take(water)", 20.0, 28.4),
+    ("pour(water)", 30.1, 42.7),
+    ("add(water)", 50.1, 71.1),
+    ("take(coffee)", 19.8, 27.9),
+    ("pour(coffee)", 37.2, 47.7),
+    ("add(coffee)", 57.0, 75.6),
+    ("take(spoon)", 21.3, 29.8),
+    ("mix(spoon)", 37.3, 48.0),
+    ("use(spoon)", 58.6, 77.8),
+    ("prepareCoffee", 165.7, 224.5),
+];
+
+/// A scene object moved to a random spot for the execution: (name, x range, y range), m.
+type Moved = (&'static str, (f64, f64), (f64, f64));
+
+/// A kitchen experiment: the task, its demonstrations (in order, one session), the objects
+/// moved for the execution and how each used object is judged.
+struct Kitchen {
+    task: &'static str,
+    table: &'static str,
+    demos: &'static [Scenario],
+    /// Scene objects moved to a random spot for the execution.
+    moved: &'static [Moved],
+    /// Objects used at the cup: (scene name, smallest tilt over the cup while held, deg).
+    used: &'static [(&'static str, f64)],
+    thesis: &'static [(&'static str, f64, f64)],
+    /// Default simulated time limit of the execution, s.
+    limit_s: f64,
+}
+
+const POURING: Kitchen = Kitchen {
+    task: "pourDrink",
+    table: "Table 5.4 (pourDrink)",
+    demos: &[Scenario::KinestheticPour],
+    moved: &[("bottle", BOTTLE_X, BOTTLE_Y)],
+    used: &[("bottle", 90.0)],
+    thesis: &THESIS_POURING,
+    limit_s: 150.0,
+};
+
+const COFFEE: Kitchen = Kitchen {
+    task: "prepareCoffee",
+    table: "Table 5.5 (prepareCoffee)",
+    demos: &[Scenario::KinestheticPour, Scenario::KinestheticCoffee, Scenario::KinestheticSpoon],
+    moved: &[("bottle", BOTTLE_X, BOTTLE_Y), ("coffee", COFFEE_X, COFFEE_Y)],
+    used: &[("bottle", 90.0), ("coffee", 90.0), ("spoon", 60.0)],
+    thesis: &THESIS_COFFEE,
+    limit_s: 420.0,
+};
+
 /// Where the bottle may stand during execution (base frame, m): reachable, on the table.
 const BOTTLE_X: (f64, f64) = (0.38, 0.58);
 const BOTTLE_Y: (f64, f64) = (0.12, 0.42);
+/// Where the coffee jar may stand (the bottle's box mirrored), m.
+const COFFEE_X: (f64, f64) = (0.38, 0.58);
+const COFFEE_Y: (f64, f64) = (-0.42, -0.12);
 /// Smallest horizontal distance between the bottle's centre and another object's, m.
 const CLEARANCE_M: f64 = 0.14;
 
@@ -69,12 +132,12 @@ pub struct KitchenTrial {
     pub teaching_subtasks: BTreeMap<String, f64>,
     /// Wall time of teaching and execution, s.
     pub wall_s: f64,
-    /// Where the bottle stood during execution (x, y base frame, m).
-    pub bottle_xy: [f64; 2],
+    /// Where the moved objects stood during execution (x, y base frame, m).
+    pub placed: BTreeMap<String, [f64; 2]>,
     /// Segments the manager cut from the demonstration.
     pub segments: Vec<String>,
-    /// Largest bottle tilt over the cup while held, deg.
-    pub max_tilt_over_cup_deg: f64,
+    /// Largest tilt of each used object over the cup while held, deg.
+    pub max_tilt_over_cup_deg: BTreeMap<String, f64>,
     /// Actions the manager reported failed (label: reason).
     pub failed_actions: Vec<String>,
 }
@@ -82,7 +145,7 @@ pub struct KitchenTrial {
 /// The run.
 #[derive(Debug, Clone, Serialize)]
 pub struct KitchenRun {
-    /// `pouring`.
+    /// `pouring`, `coffee`.
     pub experiment: String,
     /// Trials.
     pub trials: Vec<KitchenTrial>,
@@ -110,6 +173,10 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             bail!("{} missing; build with: cargo build --release --bins -p {bin}", p.display());
         }
     }
+    let kitchen = match args.name.as_str() {
+        "coffee" => &COFFEE,
+        _ => &POURING,
+    };
     let scene = Scene::from_file(Path::new("config/scenes/kitchen.yaml")).context("config/scenes/kitchen.yaml (run from the repository root)")?;
     shutdown::install();
     let mut trials = Vec::new();
@@ -118,22 +185,20 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             break;
         }
         let seed = args.seed + u64::from(k);
-        let t = pouring_trial(args, &scene, seed, k)?;
+        let t = kitchen_trial(args, kitchen, &scene, seed, k)?;
         println!(
-            "pouring seed {seed}: {} — teaching {:.1} s, bottle at ({:.2}, {:.2}), take {} s, pour {} s, task {} s, tilt {:.0}°, {:.0} s wall{}",
+            "{} seed {seed}: {} — teaching {:.1} s, {}; {}; tilt over the cup {}; {:.0} s wall{}",
+            args.name,
             if t.success { "success" } else { "FAILED" },
             t.teaching_s,
-            t.bottle_xy[0],
-            t.bottle_xy[1],
-            secs(t.subtasks.get("take(water)")),
-            secs(t.subtasks.get("pour(water)")),
-            secs(t.subtasks.get("pourDrink")),
-            t.max_tilt_over_cup_deg,
+            t.placed.iter().map(|(n, p)| format!("{n} at ({:.2}, {:.2})", p[0], p[1])).collect::<Vec<_>>().join(", "),
+            kitchen.thesis.iter().map(|(sub, _, _)| format!("{sub} {} s", secs(t.subtasks.get(*sub)))).collect::<Vec<_>>().join(", "),
+            t.max_tilt_over_cup_deg.iter().map(|(n, d)| format!("{n} {d:.0}°")).collect::<Vec<_>>().join(", "),
             t.wall_s,
             if t.reason.is_empty() { String::new() } else { format!(": {}", t.reason) }
         );
         trials.push(t);
-        let run = summarise(&args.name, trials.clone());
+        let run = summarise(&args.name, kitchen, trials.clone());
         if let Some(path) = &args.json {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
@@ -141,8 +206,8 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             std::fs::write(path, serde_json::to_string_pretty(&run)? + "\n").with_context(|| format!("writing {}", path.display()))?;
         }
     }
-    let run = summarise(&args.name, trials);
-    print_table(&run);
+    let run = summarise(&args.name, kitchen, trials);
+    print_table(&run, kitchen);
     Ok(())
 }
 
@@ -159,14 +224,14 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     Some(if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) })
 }
 
-fn summarise(name: &str, trials: Vec<KitchenTrial>) -> KitchenRun {
+fn summarise(name: &str, kitchen: &Kitchen, trials: Vec<KitchenTrial>) -> KitchenRun {
     let mut summary = BTreeMap::new();
     summary.insert("trials".into(), trials.len() as f64);
     summary.insert("successes".into(), trials.iter().filter(|t| t.success).count() as f64);
     if let Some(m) = median(trials.iter().map(|t| t.teaching_s).collect()) {
         summary.insert("teaching_s_median".into(), m);
     }
-    for (sub, _, _) in THESIS_POURING {
+    for &(sub, _, _) in kitchen.thesis {
         if let Some(m) = median(trials.iter().filter_map(|t| t.subtasks.get(sub).and_then(|s| s.time_s)).collect()) {
             summary.insert(format!("{sub}_s_median"), m);
         }
@@ -177,13 +242,13 @@ fn summarise(name: &str, trials: Vec<KitchenTrial>) -> KitchenRun {
     KitchenRun { experiment: name.to_owned(), trials, summary }
 }
 
-fn print_table(run: &KitchenRun) {
+fn print_table(run: &KitchenRun, kitchen: &Kitchen) {
     let get = |k: &str| run.summary.get(k).copied();
     let f = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1}"));
-    println!("\nTable 5.4 (pourDrink), medians over {} trials, simulated s:", run.trials.len());
+    println!("\n{}, medians over {} trials, simulated s:", kitchen.table, run.trials.len());
     println!("| | teaching, thesis | teaching, ours | execution, thesis | execution, ours |");
     println!("|---|---|---|---|---|");
-    for (sub, teach, exec) in THESIS_POURING {
+    for &(sub, teach, exec) in kitchen.thesis {
         println!(
             "| {sub} | {teach:.1} | {} | {exec:.1} | {} |",
             f(get(&format!("{sub}_teaching_s_median"))),
@@ -192,14 +257,16 @@ fn print_table(run: &KitchenRun) {
     }
     println!("| whole demonstration | | {} | | |", f(get("teaching_s_median")));
     println!(
-        "| success | 100 % | {}/{} |",
+        "| success | {} | {}/{} |",
+        if kitchen.task == "pourDrink" { "10/10" } else { "9/10" },
         get("successes").unwrap_or(0.0) as usize,
         run.trials.len()
     );
 }
 
-/// A bottle position for `seed`: uniform in the reachable box, clear of every other object.
-fn bottle_position(scene: &Scene, seed: u64) -> Result<[f64; 2]> {
+/// Positions for `seed` of the objects `kitchen` moves: each uniform in its box, clear of every
+/// other object (where it stands, or where an earlier draw put it).
+fn object_positions(kitchen: &Kitchen, scene: &Scene, seed: u64) -> Result<BTreeMap<String, [f64; 2]>> {
     // splitmix64: a few uniform draws need no generator crate.
     let mut state = seed ^ 0x706f_7572;
     let mut uniform = |lo: f64, hi: f64| {
@@ -210,31 +277,52 @@ fn bottle_position(scene: &Scene, seed: u64) -> Result<[f64; 2]> {
         z ^= z >> 31;
         lo + (hi - lo) * ((z >> 11) as f64 / (1u64 << 53) as f64)
     };
-    for _ in 0..1000 {
-        let p = [uniform(BOTTLE_X.0, BOTTLE_X.1), uniform(BOTTLE_Y.0, BOTTLE_Y.1)];
-        let clear = scene.objects.iter().filter(|o| o.name != "bottle").all(|o| {
-            let c = o.pose.position;
-            (c[0] - p[0]).hypot(c[1] - p[1]) > CLEARANCE_M
-        });
-        if clear {
-            return Ok(p);
+    let mut out: BTreeMap<String, [f64; 2]> = BTreeMap::new();
+    for &(name, xs, ys) in kitchen.moved {
+        let mut found = None;
+        for _ in 0..1000 {
+            let p = [uniform(xs.0, xs.1), uniform(ys.0, ys.1)];
+            let clear = scene.objects.iter().filter(|o| o.name != name).all(|o| {
+                let c = out.get(&o.name).copied().unwrap_or([o.pose.position[0], o.pose.position[1]]);
+                (c[0] - p[0]).hypot(c[1] - p[1]) > CLEARANCE_M
+            });
+            if clear {
+                found = Some(p);
+                break;
+            }
         }
+        let Some(p) = found else { bail!("no clear position for {name} found for seed {seed}") };
+        out.insert(name.to_owned(), p);
     }
-    bail!("no clear bottle position found for seed {seed}")
+    Ok(out)
 }
 
 /// What the judge keeps of `/lwr/world`.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 struct Judge {
+    /// Used objects and the tilt over the cup each must reach while held, rad.
+    used: Vec<(String, f64)>,
     worlds: u64,
-    grasped: bool,
-    max_tilt_over_cup: f64,
+    grasped: BTreeMap<String, bool>,
+    max_tilt_over_cup: BTreeMap<String, f64>,
     last: Option<WorldState>,
     last_t: Option<f64>,
     first: Option<WorldState>,
 }
 
 impl Judge {
+    fn new(kitchen: &Kitchen) -> Self {
+        Self {
+            used: kitchen.used.iter().map(|(n, d)| ((*n).to_owned(), d.to_radians())).collect(),
+            worlds: 0,
+            grasped: BTreeMap::new(),
+            max_tilt_over_cup: BTreeMap::new(),
+            last: None,
+            last_t: None,
+            first: None,
+        }
+    }
+
     fn on_world(&mut self, w: WorldState) {
         self.last_t = Some(w.header.stamp.to_secs_f64());
         self.worlds += 1;
@@ -242,12 +330,13 @@ impl Judge {
             self.first = Some(w.clone());
         }
         let find = |n: &str| w.objects.iter().find(|o| o.name == n);
-        if w.held_object == "bottle" {
-            self.grasped = true;
-            if let (Some(b), Some(c)) = (find("bottle"), find("cup")) {
+        if let Some((name, _)) = self.used.iter().find(|(n, _)| *n == w.held_object) {
+            self.grasped.insert(name.clone(), true);
+            if let (Some(b), Some(c)) = (find(name), find("cup")) {
                 let d = (b.pose.position.x - c.pose.position.x).hypot(b.pose.position.y - c.pose.position.y);
                 if d < 0.15 {
-                    self.max_tilt_over_cup = self.max_tilt_over_cup.max(b.tilt);
+                    let m = self.max_tilt_over_cup.entry(name.clone()).or_insert(0.0);
+                    *m = m.max(b.tilt);
                 }
             }
         }
@@ -258,23 +347,31 @@ impl Judge {
     fn verdict(&self) -> String {
         let (Some(first), Some(last)) = (&self.first, &self.last) else { return "no /lwr/world report".into() };
         let mut why = Vec::new();
-        if !self.grasped {
-            why.push("the bottle was never held".to_string());
+        for (name, min_tilt) in &self.used {
+            if !self.grasped.get(name).copied().unwrap_or(false) {
+                why.push(format!("the {name} was never held"));
+            }
+            let tilt = self.max_tilt_over_cup.get(name).copied().unwrap_or(0.0);
+            if tilt <= *min_tilt {
+                why.push(format!("the {name} was not used over the cup (max tilt {:.0}°, needs {:.0}°)", tilt.to_degrees(), min_tilt.to_degrees()));
+            }
+            // Put back: not held, upright, resting at the height it stood at (on the table).
+            let z0 = first.objects.iter().find(|o| &o.name == name).map(|o| o.pose.position.z);
+            match (last.objects.iter().find(|o| &o.name == name), z0) {
+                (Some(b), Some(z0)) if last.held_object != *name && b.tilt < 10f64.to_radians() && (b.pose.position.z - z0).abs() < 0.02 => {}
+                (Some(b), _) => why.push(format!(
+                    "the {name} is not back upright on the table (held {:?}, tilt {:.0}°, z {:.3} m)",
+                    last.held_object,
+                    b.tilt.to_degrees(),
+                    b.pose.position.z
+                )),
+                (None, _) => why.push(format!("the {name} is gone")),
+            }
         }
-        if self.max_tilt_over_cup <= 90f64.to_radians() {
-            why.push(format!("not poured over the cup (max tilt {:.0}°)", self.max_tilt_over_cup.to_degrees()));
+        if !last.held_object.is_empty() {
+            why.push(format!("the {} is still held", last.held_object));
         }
-        match last.objects.iter().find(|o| o.name == "bottle") {
-            Some(b) if last.held_object.is_empty() && b.tilt < 10f64.to_radians() && (b.pose.position.z - 0.11).abs() < 0.02 => {}
-            Some(b) => why.push(format!(
-                "the bottle is not back upright on the table (held {:?}, tilt {:.0}°, z {:.3} m)",
-                last.held_object,
-                b.tilt.to_degrees(),
-                b.pose.position.z
-            )),
-            None => why.push("the bottle is gone".into()),
-        }
-        for o in first.objects.iter().filter(|o| o.name != "bottle") {
+        for o in first.objects.iter().filter(|o| !self.used.iter().any(|(n, _)| *n == o.name)) {
             let moved = last.objects.iter().find(|x| x.name == o.name).map_or(f64::INFINITY, |x| {
                 let (a, b) = (&o.pose.position, &x.pose.position);
                 ((a.x - b.x).powi(2) + (a.y - b.y).powi(2) + (a.z - b.z).powi(2)).sqrt()
@@ -287,20 +384,42 @@ impl Judge {
     }
 }
 
-fn pouring_trial(args: &ExperimentArgs, scene: &Scene, seed: u64, k: u32) -> Result<KitchenTrial> {
+/// `subtask(take,water)` → `take(water)`.
+fn subtask_name(head: &str) -> String {
+    head.replacen("subtask(", "", 1).replacen(',', "(", 1)
+}
+
+/// The behaviour a learned subtask belongs to (Eq. 4.10): `take(spoon)`, `mix(spoon)` →
+/// `use(spoon)`; `take(O)`, `pour(O)` → `add(O)`.
+fn behaviour_of(subtask: &str) -> Option<String> {
+    let (functor, rest) = subtask.split_once('(')?;
+    let object = rest.trim_end_matches(')');
+    Some(match functor {
+        "mix" => format!("use({object})"),
+        "take" if object == "spoon" => format!("use({object})"),
+        _ => format!("add({object})"),
+    })
+}
+
+fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: u64, k: u32) -> Result<KitchenTrial> {
     let wall0 = Instant::now();
-    let dir = args.logs.join(format!("pouring-{seed}"));
+    let dir = args.logs.join(format!("{}-{seed}", args.name));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    // 1. The demonstration of this seed's teacher.
-    let demo = dir.join("kinesthetic-pour.mcap");
-    let synth = SynthOptions { seed, depth: false, vary_teacher: true, ..SynthOptions::default() };
-    cowork_synth::synthesize(Scenario::KinestheticPour, &synth, &demo, &mut |_| {})
-        .with_context(|| format!("synthesising the demonstration of seed {seed}"))?;
+    // 1. The demonstrations of this seed's teacher, each starting where the previous one left
+    //    the arm and the objects (one teaching session).
+    let mut bags = Vec::new();
+    for (i, scenario) in kitchen.demos.iter().enumerate() {
+        let bag = dir.join(format!("{scenario}.mcap"));
+        let synth = SynthOptions { seed, depth: false, vary_teacher: true, after: kitchen.demos[..i].to_vec(), ..SynthOptions::default() };
+        cowork_synth::synthesize(*scenario, &synth, &bag, &mut |_| {})
+            .with_context(|| format!("synthesising the {scenario} demonstration of seed {seed}"))?;
+        bags.push(bag);
+    }
     // 2. Teaching in the graph.
     let setup = TeachSetup {
-        bags: vec![demo],
-        task: "pourDrink".into(),
+        bags,
+        task: kitchen.task.into(),
         ltm: PathBuf::from("config/tasks/kitchen.schema"),
         ltm_out: dir.join("learned.schema"),
         database_dir: dir.join("primitives"),
@@ -317,14 +436,23 @@ fn pouring_trial(args: &ExperimentArgs, scene: &Scene, seed: u64, k: u32) -> Res
     let seg = |label: Option<&String>| label.and_then(|l| taught.segments.iter().find(|s| &s.label == l)).map(|s| s.span_s);
     let mut teaching_subtasks = BTreeMap::new();
     let mut whole: Option<(f64, f64)> = None;
+    let mut behaviours: BTreeMap<String, (f64, f64)> = BTreeMap::new();
     for l in &taught.learned {
         if let (Some(a), Some(b)) = (seg(l.actions.first()), seg(l.actions.last())) {
-            teaching_subtasks.insert(l.subtask.replacen("subtask(", "", 1).replacen(',', "(", 1), b.1 - a.0);
+            let name = subtask_name(&l.subtask);
+            if let Some(beh) = behaviour_of(&name) {
+                let e = behaviours.entry(beh).or_insert((a.0, b.1));
+                *e = (e.0.min(a.0), e.1.max(b.1));
+            }
+            teaching_subtasks.insert(name, b.1 - a.0);
             whole = Some(whole.map_or((a.0, b.1), |w| (w.0.min(a.0), w.1.max(b.1))));
         }
     }
+    for (beh, (a, b)) in behaviours {
+        teaching_subtasks.insert(beh, b - a);
+    }
     if let Some(w) = whole {
-        teaching_subtasks.insert("pourDrink".into(), w.1 - w.0);
+        teaching_subtasks.insert(kitchen.task.into(), w.1 - w.0);
     }
     let mut trial = KitchenTrial {
         seed,
@@ -337,34 +465,45 @@ fn pouring_trial(args: &ExperimentArgs, scene: &Scene, seed: u64, k: u32) -> Res
         teaching_s: taught.demonstration_s,
         teaching_subtasks,
         wall_s: 0.0,
-        bottle_xy: [0.0; 2],
+        placed: BTreeMap::new(),
         segments,
-        max_tilt_over_cup_deg: 0.0,
+        max_tilt_over_cup_deg: BTreeMap::new(),
         failed_actions: Vec::new(),
     };
     if !taught.task_done || taught.learned.is_empty() {
-        trial.reason = format!("teaching did not complete pourDrink (learned {:?})", taught.learned);
+        trial.reason = format!("teaching did not complete {} (learned {:?})", kitchen.task, taught.learned);
         trial.wall_s = wall0.elapsed().as_secs_f64();
         return Ok(trial);
     }
-    // 3. Execution with the bottle moved.
-    let xy = bottle_position(scene, seed)?;
-    trial.bottle_xy = xy;
+    // 3. Execution with the objects moved.
+    trial.placed = object_positions(kitchen, scene, seed)?;
     let mut exec_scene = scene.clone();
-    if let Some(b) = exec_scene.objects.iter_mut().find(|o| o.name == "bottle") {
-        b.pose.position[0] = xy[0];
-        b.pose.position[1] = xy[1];
+    for (name, xy) in &trial.placed {
+        if let Some(b) = exec_scene.objects.iter_mut().find(|o| &o.name == name) {
+            b.pose.position[0] = xy[0];
+            b.pose.position[1] = xy[1];
+        }
     }
     let scene_path = dir.join("kitchen.yaml");
     std::fs::write(&scene_path, serde_yaml_ng::to_string(&exec_scene)?).with_context(|| format!("writing {}", scene_path.display()))?;
-    execute(args, &setup, &taught, &scene_path, &dir, k, &mut trial)?;
+    execute(args, kitchen, &setup, &taught, &scene_path, &dir, k, &mut trial)?;
     trial.wall_s = wall0.elapsed().as_secs_f64();
     Ok(trial)
 }
 
-fn execute(args: &ExperimentArgs, setup: &TeachSetup, taught: &Taught, scene: &Path, dir: &Path, k: u32, trial: &mut KitchenTrial) -> Result<()> {
+#[allow(clippy::too_many_arguments)]
+fn execute(
+    args: &ExperimentArgs,
+    kitchen: &Kitchen,
+    setup: &TeachSetup,
+    taught: &Taught,
+    scene: &Path,
+    dir: &Path,
+    k: u32,
+    trial: &mut KitchenTrial,
+) -> Result<()> {
     let domain = cowork_graph::private_domain(120, 100, 2 * k + 1);
-    let limit_s = args.time_limit.unwrap_or(150.0);
+    let limit_s = args.time_limit.unwrap_or(kitchen.limit_s);
     let wall_limit = args.startup_timeout + 4.0 * limit_s / args.rate + 60.0;
     let dur = format!("{wall_limit:.0}");
     let s = |p: &Path| p.display().to_string();
@@ -391,9 +530,9 @@ fn execute(args: &ExperimentArgs, setup: &TeachSetup, taught: &Taught, scene: &P
     g.spawn(
         "attentional_supervisor",
         &bin("attentional_supervisor"),
-        &args_of(&["--ltm", s(&setup.ltm_out).as_str(), "--task", "pourDrink", "--use-sim-time", "--duration", dur.as_str()]),
+        &args_of(&["--ltm", s(&setup.ltm_out).as_str(), "--task", kitchen.task, "--use-sim-time", "--duration", dur.as_str()]),
     )?;
-    let mut judge = Judge::default();
+    let mut judge = Judge::new(kitchen);
     // (sim t, label, done, failed, reason)
     let mut events: Vec<(f64, String, bool, bool, String)> = Vec::new();
     let mut t_start: Option<f64> = None;
@@ -446,21 +585,30 @@ fn execute(args: &ExperimentArgs, setup: &TeachSetup, taught: &Taught, scene: &P
     g.stop();
     // Subtask times from the manager's action events: first action started → last action done.
     let span = |labels: &[String]| -> SubtaskTime {
-        let first = labels.first().and_then(|l| events.iter().find(|e| &e.1 == l && !e.2 && !e.3).map(|e| e.0));
-        let last = labels.last().and_then(|l| events.iter().find(|e| &e.1 == l && e.2).map(|e| e.0));
+        // Earliest start to latest end of its actions (add(water) and add(coffee) may run in
+        // either order, so the taught order is not the executed one).
+        let first = events.iter().filter(|e| labels.contains(&e.1) && !e.2 && !e.3).map(|e| e.0).reduce(f64::min);
+        let last = events.iter().filter(|e| labels.contains(&e.1) && e.2).map(|e| e.0).reduce(f64::max);
         let all = labels.iter().all(|l| events.iter().any(|e| &e.1 == l && e.2));
         SubtaskTime { time_s: first.zip(last).map(|(a, b)| b - a), success: all }
     };
     let mut all = Vec::new();
+    let mut behaviours: BTreeMap<String, Vec<String>> = BTreeMap::new();
     for l in &taught.learned {
-        // subtask(take,water) → take(water)
-        let name = l.subtask.replacen("subtask(", "", 1).replacen(',', "(", 1);
-        trial.subtasks.insert(name, span(&l.actions));
+        let name = subtask_name(&l.subtask);
+        trial.subtasks.insert(name.clone(), span(&l.actions));
+        if let Some(beh) = behaviour_of(&name) {
+            behaviours.entry(beh).or_default().extend(l.actions.iter().cloned());
+        }
         all.extend(l.actions.iter().cloned());
     }
-    trial.subtasks.insert("pourDrink".into(), span(&all));
+    // A behaviour spans its subtasks: the order they were taught in is the order they run.
+    for (beh, actions) in behaviours {
+        trial.subtasks.insert(beh, span(&actions));
+    }
+    trial.subtasks.insert(kitchen.task.into(), span(&all));
     trial.failed_actions = events.iter().filter(|e| e.3).map(|e| format!("{}: {}", e.1, e.4)).collect();
-    trial.max_tilt_over_cup_deg = judge.max_tilt_over_cup.to_degrees();
+    trial.max_tilt_over_cup_deg = judge.max_tilt_over_cup.iter().map(|(n, t)| (n.clone(), t.to_degrees())).collect();
     let verdict = judge.verdict();
     trial.reason = [failure, verdict].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join("; ");
     if trial.reason.is_empty() && !accomplished(&g) {

@@ -144,7 +144,7 @@ fn stacking_human_moves_boxes_slows_near_the_person_and_draws_the_person() {
     let last = &tfs.last().unwrap().1;
     for name in ["box1", "box2", "box3", "box4"] {
         let z = tf_pose(last, name).unwrap().translation.vector.z;
-        assert!(z > 0.0299 && (z < 0.0301 || z > 0.05), "{name} at z = {z} at the end");
+        assert!((0.0299..0.0301).contains(&z) || z > 0.05, "{name} at z = {z} at the end");
     }
     let hand_at = |t: f64| {
         let ns = (t * 1e9) as u64;
@@ -160,11 +160,11 @@ fn stacking_human_moves_boxes_slows_near_the_person_and_draws_the_person() {
         let (a, b) = (tf_pose(&w[0].1, "lwr_ee_link").unwrap(), tf_pose(&w[1].1, "lwr_ee_link").unwrap());
         let v = (b.translation.vector - a.translation.vector).norm() / (w[1].0 - w[0].0);
         fast = fast.max(v);
-        if let Some(h) = hand_at(w[1].0) {
-            if (h - Point3::from(b.translation.vector)).norm() < 0.45 {
-                near_samples += 1;
-                slow_near = slow_near.max(v);
-            }
+        if let Some(h) = hand_at(w[1].0)
+            && (h - Point3::from(b.translation.vector)).norm() < 0.45
+        {
+            near_samples += 1;
+            slow_near = slow_near.max(v);
         }
     }
     assert!(fast < 0.31 && fast > 0.25, "top tool speed {fast} m/s");
