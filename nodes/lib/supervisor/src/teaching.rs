@@ -8,7 +8,14 @@
 //! * a demonstrated subtask is finished when its releaser turns false (the hand closed on the
 //!   object in a take, opened at the end of a pour): its post-condition is then asserted, so
 //!   the next subtasks (e.g. `use(spoon)` after both `add`s) become enabled;
-//! * a label already used by another action is made unique with a `_N` suffix.
+//! * a label already used by another action is made unique with a `_N` suffix;
+//! * a NOA or gripper action that would open a new subtask but acts on the object of the
+//!   subtask that acquired the previous action (the retreat from the bottle just put down,
+//!   `noa8(water)` after `open7`) stays in that previous subtask as its last action. Without
+//!   this, Algorithm 4 gives `take(coffee)` the releaser `open7.done` of `pour(water)`, and
+//!   when the person adds the water instead of the robot, `take(coffee)` can never start.
+//!   With it every subtask starts with a FOA and a `true` releaser, as in Fig. 4.16 ("the
+//!   first action of each subtask has always a true releaser").
 
 use crate::ltm::Ltm;
 use crate::schema::{ActionKind, Arg, Cond, Term};
@@ -21,6 +28,23 @@ use crate::error::Warning;
 pub struct TeachSession {
     /// Post-condition of the previously attached action (p_prev in Algorithm 4).
     pub last_post: Option<Cond>,
+    /// Subtask that acquired the previous action: its term, post-condition, object and arm.
+    pub last_subtask: Option<PrevSubtask>,
+}
+
+/// The subtask that acquired the previous action (it may be finished and gone from the WM).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrevSubtask {
+    /// Its node (while it is in the WM).
+    pub node: NodeId,
+    /// Its ground term, e.g. `subtask(pour,water)`.
+    pub term: Term,
+    /// Its post-condition.
+    pub post: Cond,
+    /// The object it is about.
+    pub object: Option<String>,
+    /// Arm (dual-arm).
+    pub arm: Option<usize>,
 }
 
 /// A learned action, reported as a decision.
@@ -77,7 +101,9 @@ pub fn attach(
     arm: Option<usize>,
 ) -> Result<Attached, Warning> {
     let label_in = term.to_string();
-    let Some(sub) = winner(wm, arm) else { return Err(Warning::NoOpenSubtask { label: label_in }) };
+    let won = winner(wm, arm);
+    let retreat = retreat_owner(wm, ltm, session, won, &term, kind);
+    let Some(mut sub) = won.or(retreat.as_ref().map(|p| p.node)) else { return Err(Warning::NoOpenSubtask { label: label_in }) };
     if ltm.has_action(&term.functor) {
         let base = term.functor.clone();
         let mut n = 2;
@@ -85,6 +111,27 @@ pub fn attach(
             n += 1;
         }
         term.functor = format!("{base}_{n}");
+    }
+    if let Some(prev) = retreat {
+        match wm.get(prev.node) {
+            Some(p) if !p.accomplished => sub = prev.node,
+            // Finished (and possibly deallocated): the retreat goes to the LTM only; in the WM
+            // it is demonstrated already.
+            _ => {
+                let releaser = session.last_post.clone().unwrap_or_default();
+                ltm.learn_action(&prev.term, &prev.post, &term, kind, &releaser);
+                let post = crate::ltm::done_cond(&term.functor);
+                state.assert_cond(&GroundCond::new(post.clone()));
+                session.last_post = Some(post);
+                return Ok(Attached {
+                    label: term.to_string(),
+                    kind,
+                    subtask: prev.term.to_string(),
+                    releaser: releaser.to_string(),
+                    arm: prev.arm,
+                });
+            }
+        }
     }
     let (sub_term, sub_post, last_child) = match wm.get(sub) {
         Some(s) => (s.term.clone(), s.post.cond.clone(), s.children.last().copied()),
@@ -103,6 +150,13 @@ pub fn attach(
     let post = wm.get(id).map(|n| n.post.clone()).unwrap_or_default();
     state.assert_cond(&post);
     session.last_post = Some(post.cond.clone());
+    session.last_subtask = wm.get(sub).map(|s| PrevSubtask {
+        node: sub,
+        term: s.term.clone(),
+        post: s.post.cond.clone(),
+        object: s.object.clone(),
+        arm: s.arm,
+    });
     if let Some(a) = wm.get_mut(id) {
         a.accomplished = true;
         a.expanded = true;
@@ -124,6 +178,19 @@ pub fn attach(
         releaser: releaser.to_string(),
         arm: sub_arm,
     })
+}
+
+/// The subtask that keeps a retreat: `Some(prev)` when the winner `won` has no action yet (or
+/// there is none: the retreat after the task's last release), the action is not a FOA, and it
+/// acts on the object of `prev`, the subtask that acquired the previous action (module docs).
+fn retreat_owner(wm: &Wm, ltm: &Ltm, session: &TeachSession, won: Option<NodeId>, term: &Term, kind: ActionKind) -> Option<PrevSubtask> {
+    let fresh = won.is_none_or(|w| wm.get(w).is_some_and(|s| s.children.is_empty()));
+    if kind == ActionKind::Foa || !fresh {
+        return None;
+    }
+    let prev = session.last_subtask.clone().filter(|p| Some(p.node) != won)?;
+    let own = term.constant_args().filter(|c| ltm.is_object(c)).last()?;
+    (prev.object.as_deref() == Some(own)).then_some(prev)
 }
 
 /// Ends the demonstration of subtasks whose releaser turned false: asserts their

@@ -152,6 +152,38 @@ fn cooperative_execution_switches_within_one_tick() {
 }
 
 #[test]
+fn retreat_after_a_release_stays_with_the_subtask_that_released() {
+    // The teacher backs off the bottle after opening the gripper (noa25(water)): by Algorithm 4
+    // alone it would open take(coffee) chained to open8.done, so take(coffee) could never start
+    // when the person adds the water. It stays the last action of pour(water); every subtask
+    // still starts with a FOA and a true releaser (Fig. 4.16).
+    let learned = learned(ltm("kitchen.schema"), "prepareCoffee", "coffee_teach_retreat.jsonl");
+    let pour = entries(&learned, "subtask(pour,water)");
+    assert_eq!(pour.last().map(|e| (e.0.as_str(), e.1.as_str())), Some(("noa25(water)", "open8.done")), "{pour:?}");
+    assert_eq!(entries(&learned, "subtask(pour,coffee)").last().map(|e| e.0.clone()), Some("noa26(coffee)".into()));
+    assert_eq!(entries(&learned, "subtask(mix,spoon)").last().map(|e| e.0.clone()), Some("noa27(spoon)".into()));
+    let mut total = 0;
+    for s in ["subtask(take,water)", "subtask(pour,water)", "subtask(take,coffee)", "subtask(pour,coffee)", "subtask(take,spoon)", "subtask(mix,spoon)"] {
+        let e = entries(&learned, s);
+        assert_eq!(e[0].1, "true", "{s}: {e:?}");
+        total += e.len();
+    }
+    assert_eq!(total, 27);
+    // Cooperative execution with this LTM: the person takes the bottle, the robot goes on with
+    // the coffee in the same tick.
+    let (_, rep) = run(learned.clone(), "prepareCoffee", "coffee_cooperative.jsonl", Some(0.5));
+    assert_no_warnings(&rep);
+    let acts = rep.actions();
+    assert_eq!(acts[..2], ["foa1(water)".to_owned(), "foa9(coffee)".to_owned()], "{acts:?}");
+    assert!(rep.task_accomplished());
+    // Autonomous execution runs every action once, retreats included.
+    let (_, rep) = run(learned, "prepareCoffee", "coffee_execute_water_first.jsonl", Some(0.5));
+    assert_no_warnings(&rep);
+    assert!(rep.task_accomplished());
+    assert_eq!(rep.actions().len(), 27, "{:?}", rep.actions());
+}
+
+#[test]
 fn prepare_tea_reuses_learned_add_water() {
     // Fig. 5.23: add(water) learned for the coffee runs at once; add(tea) is open, so the
     // robot asks for a demonstration, which is then attached to take(tea)/pour(tea).
