@@ -2,9 +2,10 @@
 # Debian packages the tests need: Mesa's software Vulkan driver (lavapipe) and the Vulkan loader,
 # so the wgpu path of fDED has an adapter to run on, and Chromium, which the cross-check group's
 # report check (tests/crosscheck/check_report.sh) runs headless to screenshot `cowork report`'s
-# index.html. Idempotent; needs root (or sudo) to install.
+# index.html, and the openssl command, with which `cowork keystore` writes DDS Security keystores
+# (nodes/lib/ros/tests/security.rs). Idempotent; needs root (or sudo) to install.
 set -euo pipefail
-packages=(mesa-vulkan-drivers libvulkan1 chromium)
+packages=(mesa-vulkan-drivers libvulkan1 chromium openssl)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

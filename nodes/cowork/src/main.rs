@@ -62,6 +62,9 @@ enum Command {
     /// Benchmarks that print tables.
     #[command(subcommand)]
     Bench(BenchCommand),
+    /// DDS Security keystores (SROS2 layout): create, enclave.
+    #[command(subcommand)]
+    Keystore(cmd::keystore::KeystoreCommand),
 }
 
 #[derive(Debug, Subcommand)]
@@ -114,5 +117,6 @@ fn run(command: Command) -> Result<()> {
         Command::Bench(BenchCommand::Control(a)) => cmd::bench_control::run(a),
         Command::Bench(BenchCommand::Gestures(a)) => cmd::observe::bench(a),
         Command::Observe(a) => cmd::observe::observe(a),
+        Command::Keystore(c) => cmd::keystore::run(c),
     }
 }

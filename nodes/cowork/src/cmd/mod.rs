@@ -9,6 +9,7 @@ pub mod bridge_stats;
 pub mod experiment;
 pub mod experiment_kitchen;
 pub mod fded;
+pub mod keystore;
 pub mod learn;
 pub mod observe;
 pub mod report;

@@ -10,6 +10,7 @@
 //! - [`graph`]: the nodes of the domain and a topic's publishers / subscriptions with their QoS
 //!   (`cowork node list`, `cowork topic info`);
 //! - [`config`]: the bundled `config/` directory from any working directory;
+//! - [`security`]: DDS Security (SROS2 keystores, `ROS_SECURITY_*`) for every node;
 //! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop;
 //! - [`raw`]: untyped publishers / subscriptions of serialised CDR payloads named only by their
 //!   type string (bag record and replay of types we do not know).
@@ -31,6 +32,7 @@ pub use node::{discovery_on_all_networks, domain_id_from_env};
 pub mod params;
 pub mod qos;
 pub mod raw;
+pub mod security;
 pub mod shutdown;
 
 pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};

@@ -84,16 +84,95 @@ pub fn discovery_on_all_networks() -> bool {
     }
 }
 
-fn new_context(domain: u16) -> Result<Context> {
-    let mut builder = DomainParticipantBuilder::new(domain).same_host_loopback(true);
-    if !discovery_on_all_networks() {
-        builder = builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
-    }
-    let participant = builder
-        .build()
-        .with_context(|| format!("cannot join DDS domain {domain}"))?;
+fn new_context(domain: u16, namespace: &str, name: &str) -> Result<Context> {
+    let security = match crate::security::from_env(namespace, name) {
+        None => None,
+        Some(settings) => secure_root(&settings)?,
+    };
+    let builder = || {
+        let mut builder = DomainParticipantBuilder::new(domain).same_host_loopback(true);
+        if !discovery_on_all_networks() {
+            builder = builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
+        }
+        builder
+    };
+    let participant = match security {
+        None => builder().build().with_context(|| format!("cannot join DDS domain {domain}"))?,
+        Some((settings, dir)) => match secure_participant(builder(), &dir) {
+            Ok(p) => {
+                tracing::info!("DDS security on: enclave {} ({})", settings.enclave, dir.display());
+                p
+            }
+            Err(e) if settings.strategy == crate::security::Strategy::Permissive => {
+                tracing::warn!(
+                    "DDS security refused enclave {} ({}): {e:#}; ROS_SECURITY_STRATEGY is Permissive, so running WITHOUT security",
+                    settings.enclave,
+                    dir.display()
+                );
+                builder().build().with_context(|| format!("cannot join DDS domain {domain}"))?
+            }
+            Err(e) => {
+                return Err(e.context(format!(
+                    "ROS_SECURITY_STRATEGY=Enforce: cannot join DDS domain {domain} secured with enclave {} ({})",
+                    settings.enclave,
+                    dir.display()
+                )));
+            }
+        },
+    };
     Context::from_domain_participant(participant)
         .with_context(|| format!("cannot create a ROS 2 context on DDS domain {domain}"))
+}
+
+/// The enclave directory to secure the participant with, `None` to run unsecured
+/// (Permissive without usable credentials, with a warning); Enforce without them is an error.
+fn secure_root(
+    settings: &crate::security::SecuritySettings,
+) -> Result<Option<(crate::security::SecuritySettings, std::path::PathBuf)>> {
+    use crate::security::Strategy;
+    let found = if crate::security::SUPPORTED {
+        settings.enclave_dir()
+    } else {
+        Err(anyhow::anyhow!(
+            "this binary was built without DDS security (rebuild it with `--features cowork_ros/security`)"
+        ))
+    };
+    match (found, settings.strategy) {
+        (Ok(dir), _) => Ok(Some((settings.clone(), dir))),
+        (Err(e), Strategy::Enforce) => Err(e.context(format!(
+            "ROS_SECURITY_ENABLE=true with ROS_SECURITY_STRATEGY=Enforce: no usable credentials for enclave {}",
+            settings.enclave
+        ))),
+        (Err(e), Strategy::Permissive) => {
+            tracing::warn!(
+                "ROS_SECURITY_ENABLE=true but no usable credentials for enclave {}: {e:#}; ROS_SECURITY_STRATEGY is Permissive, so running WITHOUT security",
+                settings.enclave
+            );
+            Ok(None)
+        }
+    }
+}
+
+#[cfg(feature = "security")]
+fn secure_participant(
+    builder: DomainParticipantBuilder,
+    dir: &std::path::Path,
+) -> Result<ros2_client::dds::rustdds::DomainParticipant> {
+    use ros2_client::dds::rustdds::DomainParticipantSecurityConfigFiles;
+    // Unencrypted key.pem, as sros2 writes it (RustDDS reads no password-protected keys).
+    let files = DomainParticipantSecurityConfigFiles::with_ros_default_names(dir, String::new());
+    builder
+        .builtin_security(files)
+        .build()
+        .map_err(|e| anyhow::anyhow!("the DDS security plugins refused the credentials: {e}"))
+}
+
+#[cfg(not(feature = "security"))]
+fn secure_participant(
+    _builder: DomainParticipantBuilder,
+    _dir: &std::path::Path,
+) -> Result<ros2_client::dds::rustdds::DomainParticipant> {
+    bail!("this binary was built without DDS security")
 }
 
 impl RosNode {
@@ -104,7 +183,7 @@ impl RosNode {
             Some(d) => d,
             None => domain_id_from_env()?,
         };
-        let context = new_context(domain)?;
+        let context = new_context(domain, &config.namespace, name)?;
         let node_name = NodeName::new(&config.namespace, name)
             .map_err(|e| anyhow::anyhow!("invalid node name {name:?} in {:?}: {e:?}", config.namespace))?;
         let mut node = context
