@@ -81,6 +81,24 @@ fn bench(c: &mut Criterion) {
             black_box(&out);
         })
     });
+    // The controller step with task transition control active: `ds_step_obstacles`'s inputs
+    // plus a 20 N push on the elbow (three stacks blended after the DS, damper, saturation).
+    let mut cfg = ControllerConfig::default();
+    cfg.ttc.enabled = true;
+    let mut guided = DsController::new(ctl.model().clone(), cfg).expect("config");
+    let wrench = cowork_ds::ExternalWrench {
+        stamp: 0.0,
+        link: guided.model().joint_link(3),
+        force: Vector3::new(0.0, 20.0, 0.0),
+    };
+    c.bench_function("ds_step_obstacles_ttc_contact", |b| {
+        b.iter(|| {
+            guided
+                .step_with_contact(black_box(&input), None, Some(&wrench), &mut out)
+                .expect("valid input");
+            black_box(&out);
+        })
+    });
 }
 
 /// One task transition control step (Sec. 4.1.2) with a 20 N push on the elbow: the three

@@ -11,6 +11,7 @@ use crate::modulation::{
 use crate::primitive::{LearnedField, Primitive};
 use crate::safety::{LinkSafety, SafetyConfig, SafetyReport};
 use crate::scaling::{HumanState, ScalingConfig};
+use crate::ttc::{Contact, Ttc, TtcConfig, TtcReport, contact_point_at_link_end};
 use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
 use nalgebra::{Point3, Unit, UnitQuaternion, Vector3};
 
@@ -79,6 +80,9 @@ pub struct ControllerConfig {
     pub ik: IkConfig,
     /// Link-distance damper above the end-effector task (ours; see [`crate::safety`]).
     pub safety: SafetyConfig,
+    /// Task transition control of a person's push (thesis Sec. 4.1.2; see [`crate::ttc`]),
+    /// off by default.
+    pub ttc: TtcConfig,
 }
 
 impl Default for ControllerConfig {
@@ -98,6 +102,7 @@ impl Default for ControllerConfig {
             escape: EscapeConfig::default(),
             ik: IkConfig::default(),
             safety: SafetyConfig::default(),
+            ttc: TtcConfig::default(),
         }
     }
 }
@@ -302,6 +307,7 @@ impl ControllerConfig {
             "must exceed safety.scene_stop_distance and be ≤ safety.slow_distance (m)",
         )?;
         check("safety.damping", f.damping, f.damping >= 0.0, "must be ≥ 0")?;
+        c.ttc.validate()?;
         check(
             "safety.hand_radius",
             f.hand_radius,
@@ -393,6 +399,79 @@ pub struct HumanInput {
     pub state: HumanState,
 }
 
+/// A person's push on the arm as the robot reports it (`lwr_sim`'s `/lwr/external_wrench` in
+/// execute mode): the force f_e and the link it acts on. Task transition control takes the
+/// contact at the end of that link (thesis Sec. 4.1.2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExternalWrench {
+    /// Time the wrench was measured (s, same clock as [`ControlInput::time`]).
+    pub stamp: f64,
+    /// The contact link (model index).
+    pub link: usize,
+    /// Force f_e (N, base frame).
+    pub force: Vector3<f64>,
+}
+
+/// Why [`DsController::step_with_contact`] did not use a given wrench (the robot runs on as
+/// without a touch).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WrenchIgnored {
+    /// `ttc.enabled` is false.
+    Disabled,
+    /// Older than `ttc.max_wrench_age_s`, or stamped in the future beyond
+    /// `future_tolerance_s` (s): the touch is over (or the clock went back).
+    Stale {
+        /// Age (s).
+        age_s: f64,
+    },
+    /// A NaN or infinite force or stamp.
+    NonFinite,
+    /// ‖f_e‖ above `ttc.max_force` (N): not a person's guidance.
+    TooLarge {
+        /// ‖f_e‖ (N).
+        force_n: f64,
+    },
+    /// The link index is not a link of the model.
+    UnknownLink {
+        /// The index given.
+        link: usize,
+    },
+}
+
+impl std::fmt::Display for WrenchIgnored {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Disabled => write!(f, "task transition control is disabled (ttc.enabled: false)"),
+            Self::Stale { age_s } => write!(f, "stale: age {age_s:.3} s"),
+            Self::NonFinite => write!(f, "non-finite force or stamp"),
+            Self::TooLarge { force_n } => write!(f, "force {force_n:.1} N exceeds ttc.max_force"),
+            Self::UnknownLink { link } => write!(f, "unknown contact link index {link}"),
+        }
+    }
+}
+
+/// What task transition control did in one step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactReport {
+    /// Barycentric weights (w₁, w₂, w₃) of T_ee, [T_ee, T_ic], [T_ic, T_ee]; (1, 0, 0) with
+    /// TTC off or idle.
+    pub weights: [f64; 3],
+    /// The contact link used this step.
+    pub link: Option<usize>,
+    /// ‖f_e‖ used (N); 0 without a contact.
+    pub force_n: f64,
+    /// A wrench was given but not used, and why.
+    pub ignored: Option<WrenchIgnored>,
+    /// The TTC step's own figures (zero when it did not run).
+    pub ttc: TtcReport,
+}
+
+impl Default for ContactReport {
+    fn default() -> Self {
+        Self { weights: [1.0, 0.0, 0.0], link: None, force_n: 0.0, ignored: None, ttc: TtcReport::default() }
+    }
+}
+
 /// The motion to run (a `cowork_msgs/MotionCommand`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MotionCommand {
@@ -478,6 +557,8 @@ pub struct Diagnostics {
     pub age_scale: f64,
     /// What the link-distance damper did.
     pub safety: SafetyReport,
+    /// Task transition control (a person's push).
+    pub contact: ContactReport,
 }
 
 impl Default for Diagnostics {
@@ -500,6 +581,7 @@ impl Default for Diagnostics {
                 distance_m: f64::INFINITY,
                 ..SafetyReport::default()
             },
+            contact: ContactReport::default(),
         }
     }
 }
@@ -549,6 +631,10 @@ pub struct DsController {
     ramp: f64,
     /// Command id the learned field was last reset for.
     field_command: Option<u32>,
+    /// Task transition control (used when `cfg.ttc.enabled`).
+    ttc: Ttc,
+    /// The last contact link while the TTC weights are away from T¹.
+    contact_link: Option<usize>,
 }
 
 impl DsController {
@@ -572,6 +658,8 @@ impl DsController {
             posture_q: JointVector::zeros(),
             ramp: 0.0,
             field_command: None,
+            ttc: Ttc::new(cfg.ttc)?,
+            contact_link: None,
             model,
             cfg,
         })
@@ -625,6 +713,46 @@ impl DsController {
         &mut self,
         input: &ControlInput,
         field: Option<&mut dyn LearnedField>,
+        out: &mut ControlOutput,
+    ) -> std::result::Result<(), Fault> {
+        self.step_with_contact(input, field, None, out)
+    }
+
+    /// Whether `wrench` may act this step (see [`WrenchIgnored`]).
+    pub fn check_wrench(&self, time: f64, wrench: &ExternalWrench) -> std::result::Result<(), WrenchIgnored> {
+        if !self.cfg.ttc.enabled {
+            return Err(WrenchIgnored::Disabled);
+        }
+        if !(wrench.stamp.is_finite() && wrench.force.iter().all(|v| v.is_finite())) {
+            return Err(WrenchIgnored::NonFinite);
+        }
+        let age = time - wrench.stamp;
+        if !(age <= self.cfg.ttc.max_wrench_age_s && age >= -self.cfg.future_tolerance_s) {
+            return Err(WrenchIgnored::Stale { age_s: age });
+        }
+        let force_n = wrench.force.norm();
+        if force_n > self.cfg.ttc.max_force {
+            return Err(WrenchIgnored::TooLarge { force_n });
+        }
+        if wrench.link >= self.model.link_count() {
+            return Err(WrenchIgnored::UnknownLink { link: wrench.link });
+        }
+        Ok(())
+    }
+
+    /// [`step_with_field`](Self::step_with_field) with a person's push: with `ttc.enabled`, the
+    /// IK's joint velocity is T¹ of task transition control ([`crate::ttc`], thesis Sec.
+    /// 4.1.2) and `wrench` drives the blend towards [T_ee, T_ic] (‖f‖ ≥ `insert_force`) or
+    /// [T_ic, T_ee] (≥ `switch_force`), the contact at the end of the wrench's link. A stale,
+    /// non-finite, too large or unknown-link wrench is not used (`out.diagnostics.contact
+    /// .ignored` says why; the step runs as without a touch). The weights keep moving after the
+    /// touch ends, so the joint velocity does not jump; a hold resets them. The link-distance
+    /// damper and the saturation still act on the blended velocity. Allocation-free.
+    pub fn step_with_contact(
+        &mut self,
+        input: &ControlInput,
+        field: Option<&mut dyn LearnedField>,
+        wrench: Option<&ExternalWrench>,
         out: &mut ControlOutput,
     ) -> std::result::Result<(), Fault> {
         let mut checked = self.validate(input);
@@ -766,6 +894,52 @@ impl DsController {
             &posture,
             &mut d.ik,
         );
+        // Task transition control: the IK's q̇ is T¹; a push blends in T² / T³.
+        let mut contact_report = ContactReport::default();
+        let contact = match wrench {
+            Some(w) => match self.check_wrench(input.time, w) {
+                Ok(()) => Some(Contact {
+                    link: w.link,
+                    point: contact_point_at_link_end(&self.model, &self.poses, w.link),
+                    force: w.force,
+                }),
+                Err(why) => {
+                    contact_report.ignored = Some(why);
+                    None
+                }
+            },
+            None => None,
+        };
+        // After the touch (or a refused wrench) the guidance task stays in the stacks with
+        // ẋ_ic = 0 at the last contact while the weights return to T¹: dropping it at once
+        // would switch q̇² and q̇³ to q̇¹ in one step (a joint-velocity jump).
+        let contact = contact.or_else(|| {
+            (!self.ttc.idle()).then_some(self.contact_link).flatten().map(|link| Contact {
+                link,
+                point: contact_point_at_link_end(&self.model, &self.poses, link),
+                force: Vector3::zeros(),
+            })
+        });
+        if self.cfg.ttc.enabled && (contact.is_some() || !self.ttc.idle()) {
+            self.contact_link = contact.map(|c| c.link);
+            qdot = self.ttc.step_from(
+                &self.model,
+                &self.poses,
+                self.tip,
+                &twist,
+                Some(&qdot),
+                contact.as_ref(),
+                dt,
+                &mut contact_report.ttc,
+            );
+            contact_report.weights = contact_report.ttc.weights;
+            contact_report.link = contact.filter(|c| c.force != Vector3::zeros()).map(|c| c.link);
+            contact_report.force_n = contact.map_or(0.0, |c| c.force.norm());
+            if self.ttc.idle() {
+                self.contact_link = None;
+            }
+        }
+        d.contact = contact_report;
         // Safety above the end-effector task: no link closes on an obstacle faster than the
         // damper allows (the end-effector links too unless the command turned their avoidance
         // off).
@@ -839,6 +1013,8 @@ impl DsController {
         self.last_qdot = qdot;
         self.ramp = 0.0;
         self.escape.reset();
+        self.ttc.reset();
+        self.contact_link = None;
         out.qdot = qdot;
         out.status = Status::Held(reason);
         out.diagnostics = Diagnostics {

@@ -48,8 +48,9 @@ pub mod scaling;
 pub mod ttc;
 
 pub use controller::{
-    ControlInput, ControlOutput, ControllerConfig, Diagnostics, Distances, DsController,
-    HoldReason, HumanInput, LinkDistance, ModulationConfig, MotionCommand, Status,
+    ContactReport, ControlInput, ControlOutput, ControllerConfig, Diagnostics, Distances,
+    DsController, ExternalWrench, HoldReason, HumanInput, LinkDistance, ModulationConfig,
+    MotionCommand, Status, WrenchIgnored,
 };
 pub use error::{Error, Fault, Result, Stream};
 pub use primitive::{FirstOrderDs, LearnedField, Primitive};

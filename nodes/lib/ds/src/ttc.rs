@@ -34,6 +34,17 @@ use crate::{Error, Result};
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct TtcConfig {
+    /// Run task transition control inside [`crate::DsController`] (its
+    /// [`step_with_contact`](crate::DsController::step_with_contact)); off: a reported wrench
+    /// is ignored and the controller is today's. [`Ttc`] itself ignores this flag.
+    pub enabled: bool,
+    /// A reported external wrench counts for the controller while younger than this (s, by its
+    /// stamp); older, the touch is over (the simulator reports an active push at 1 kHz).
+    pub max_wrench_age_s: f64,
+    /// A reported force above this (N) is not a person's guidance (a collision or a sensor
+    /// fault): ignored, the primitive runs on. The LWR's own collision detection is the
+    /// safety net for that, not the guidance task.
+    pub max_force: f64,
     /// Admittance gain c of eq. 4.6 (m/(N·s)): ẋ_ic = c f_e. Thesis: 0.005.
     pub contact_gain: f64,
     /// Force f_i (N) from which the guidance is inserted below T_ee (T²). Thesis: 5 N.
@@ -51,6 +62,9 @@ pub struct TtcConfig {
 impl Default for TtcConfig {
     fn default() -> Self {
         Self {
+            enabled: false,
+            max_wrench_age_s: 0.05,
+            max_force: 150.0,
             contact_gain: 0.005,
             insert_force: 5.0,
             switch_force: 15.0,
@@ -77,7 +91,14 @@ impl TtcConfig {
         )?;
         check("ttc.transition_gain", self.transition_gain, self.transition_gain > 0.0, "must be > 0 1/s²")?;
         check("ttc.damping", self.damping, self.damping >= 0.0, "must be ≥ 0")?;
-        check("ttc.contact_damping", self.contact_damping, self.contact_damping >= 0.0, "must be ≥ 0")
+        check("ttc.contact_damping", self.contact_damping, self.contact_damping >= 0.0, "must be ≥ 0")?;
+        check("ttc.max_wrench_age_s", self.max_wrench_age_s, self.max_wrench_age_s > 0.0, "must be > 0 s")?;
+        check(
+            "ttc.max_force",
+            self.max_force,
+            self.max_force > self.switch_force,
+            "must exceed switch_force N",
+        )
     }
 }
 
@@ -181,6 +202,11 @@ impl Ttc {
         [self.w[0], self.w[1], self.w[2]]
     }
 
+    /// At T¹ and at rest (w = ê₁, ẇ = 0): without a touch a step would return q̇¹ unchanged.
+    pub fn idle(&self) -> bool {
+        self.w[0] == 1.0 && self.w_dot.iter().all(|v| *v == 0.0)
+    }
+
     /// Back to T¹ at rest (a new primitive, or after a hold).
     pub fn reset(&mut self) {
         self.w = SVector::<f64, 3>::new(1.0, 0.0, 0.0);
@@ -201,6 +227,25 @@ impl Ttc {
         dt: f64,
         report: &mut TtcReport,
     ) -> JointVector {
+        self.step_from(model, poses, tip, ee_twist, None, contact, dt, report)
+    }
+
+    /// [`step`](Self::step) with the T¹ solution given: `primary` replaces q̇¹ = J_ee† ẋ_ee
+    /// (e.g. [`crate::DsController`]'s IK, which adds null-space link avoidance and a posture
+    /// task below T_ee); T² builds on it (q̇² = q̇¹ + N_ee (J_c N_ee)† (ẋ_ic − J_c q̇¹)), T³ is
+    /// computed from ẋ_ee as in `step`. `None`: q̇¹ = J_ee† ẋ_ee.
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_from(
+        &mut self,
+        model: &RobotModel,
+        poses: &LinkPoses,
+        tip: usize,
+        ee_twist: &Twist,
+        primary: Option<&JointVector>,
+        contact: Option<&Contact>,
+        dt: f64,
+        report: &mut TtcReport,
+    ) -> JointVector {
         let contact = contact.filter(|c| c.force.iter().all(|v| v.is_finite()) && c.point.iter().all(|v| v.is_finite()));
         let force = contact.map_or(0.0, |c| c.force.norm());
         let target = Stack::for_force(force, &self.cfg);
@@ -208,7 +253,10 @@ impl Ttc {
 
         model.jacobian(poses, tip, &Point3::origin(), &mut self.j_ee);
         let ee_pinv = damped_pseudo_inverse(&self.j_ee, self.cfg.damping);
-        let q1 = ee_pinv * ee_twist;
+        let q1 = match primary {
+            Some(q) => *q,
+            None => ee_pinv * ee_twist,
+        };
         let (q2, q3, x_ic) = match contact {
             Some(c) => {
                 let in_link = poses.get(c.link).inverse_transform_point(&c.point);
@@ -273,6 +321,12 @@ impl Ttc {
                 self.w = wd;
                 self.w_dot = SVector::zeros();
             }
+        }
+        // Settled: snap to the corner (a change of < 1e-9 in w), so that a controller can tell
+        // T¹ at rest ([`Ttc::idle`]) instead of decaying for ever.
+        if (self.w - wd).amax() < 1e-9 && self.w_dot.amax() < 1e-9 {
+            self.w = wd;
+            self.w_dot = SVector::zeros();
         }
     }
 }

@@ -117,3 +117,48 @@ impl JointVectorStep {
         cowork_robot::JointVector::from_element(s)
     }
 }
+
+/// The step with task transition control active allocates nothing either: 6000 steps of a
+/// closed loop with pushes below f_i, between f_i and f_s, above f_s, released, stale, NaN,
+/// huge and on an unknown link.
+#[test]
+fn steps_with_task_transition_control_allocate_nothing() {
+    use cowork_ds::{ExternalWrench, TtcConfig};
+    let model = common::lwr();
+    let mut q = common::q_start();
+    let goal = common::tip_position(&model, &q) + Vector3::new(0.05, 0.25, -0.05);
+    let cfg = ControllerConfig { ttc: TtcConfig { enabled: true, ..TtcConfig::default() }, ..ControllerConfig::default() };
+    let mut ctl = DsController::new(model.clone(), cfg).expect("config");
+    let elbow = model.joint_link(3);
+    let tip = model.tip_link();
+    let mut out = ControlOutput::default();
+    let mut blended = 0usize;
+    let mut ignored = 0usize;
+    let before = allocations();
+    for k in 0..6000 {
+        let t = k as f64 * 1e-3;
+        let input = common::input(q, common::command(common::constant_speed(0.2), goal), t);
+        let (link, f, stamp) = match k / 500 {
+            0 => (elbow, 3.0, t),
+            1 => (elbow, 10.0, t),
+            2 => (tip, 20.0, t),
+            3 => (tip, 0.0, t),
+            4 => (elbow, 10.0, t - 1.0),
+            5 => (elbow, f64::NAN, t),
+            6 => (elbow, 1e6, t),
+            7 => (99, 10.0, t),
+            8 => (tip, 30.0, t),
+            _ => (elbow, 8.0, t),
+        };
+        let w = ExternalWrench { stamp, link, force: Vector3::new(0.0, f, 0.0) };
+        let _ = ctl.step_with_contact(&input, None, Some(&w), &mut out);
+        blended += usize::from(out.diagnostics.contact.weights[0] < 1.0);
+        ignored += usize::from(out.diagnostics.contact.ignored.is_some());
+        q += out.qdot * 1e-3;
+        black_box(&out);
+    }
+    let after = allocations();
+    assert_eq!(after - before, 0, "allocations in 6000 steps with TTC");
+    assert!(blended > 1500, "TTC blend exercised: {blended}");
+    assert!(ignored >= 2000, "ignored wrenches exercised: {ignored}");
+}
