@@ -15,6 +15,17 @@
 //! a recorded pour), and through eq. 5.8's (I − M) ẋ_O term that phantom motion outweighed the
 //! DS near its goal — `foa1(water)` hovered 2–3 cm off its goal until it timed out.
 //!
+//! **fDED's gray area.** Behind an object pixel fDED assumes the occluded space is occupied
+//! (eq. 5.17): a robot point deeper than the pixel is measured to a point on the pixel's camera
+//! ray at the robot point's depth, not on the object. So a wrist reaching down behind the coffee
+//! jar (seen from the camera) gets obstacle points 4–10 cm beyond the jar's surface — in a
+//! recorded coffee run they stalled the spoon's dip into the cup (`noa21(cup)`) for its whole
+//! 120 s. A point is therefore also the object's when the segment from the camera to it passes
+//! through the object's grown shape: it lies in that object's shadow. (A hand hidden in the
+//! same shadow is invisible to the camera anyway; a hand in front of the object is its own,
+//! nearer pixel and is damped in full.) [`SceneObjects::with_camera`]`(None)` makes only the
+//! shape test.
+//!
 //! Fail closed: no report, a report further than `max_age_s` from the distances' stamp, one in
 //! another frame or with a non-finite pose, an object whose name has no shape: nothing is
 //! known, every obstacle gets the damper's full (person) distances.
@@ -26,7 +37,7 @@ use anyhow::{Context, Result};
 use cowork_ds::Distances;
 use cowork_msgs::msg::WorldState;
 use cowork_sim::Shape;
-use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// The `scene_objects:` block of the ds_controller parameters.
@@ -69,6 +80,9 @@ pub struct SceneObjects {
     margin_m: f64,
     max_age_s: f64,
     base_frame: String,
+    /// Camera position (optical frame origin), base frame: obstacle points in an object's
+    /// shadow seen from here are that object's (module docs). `None`: shape test only.
+    camera: Option<Point3<f64>>,
     /// (stamp s, [(name, shape, pose in the base frame, velocity m/s)]) of the newest usable
     /// report.
     world: Option<(f64, Vec<Known>)>,
@@ -90,18 +104,26 @@ impl SceneObjects {
     /// directory; reports must be in `base_frame`.
     pub fn from_params(p: &SceneObjectsParams, base_frame: &str) -> Result<Self> {
         let mut shapes = HashMap::new();
+        let mut camera = None;
         if !p.scene.is_empty() {
             let path = Path::new(&p.scene);
             let scene = cowork_sim::Scene::from_file(path)
                 .with_context(|| format!("ds_controller parameters: `scene_objects.scene` {}", path.display()))?;
+            camera = Some(Point3::from(scene.camera.pose.isometry().translation.vector));
             shapes.extend(scene.objects.into_iter().map(|o| (o.name, o.shape)));
         }
-        Ok(Self::new(shapes, p.margin_m, p.max_age_s, base_frame))
+        Ok(Self::new(shapes, p.margin_m, p.max_age_s, base_frame).with_camera(camera))
+    }
+
+    /// Obstacle points in an object's shadow seen from `camera` (base frame) are that object's.
+    pub fn with_camera(mut self, camera: Option<Point3<f64>>) -> Self {
+        self.camera = camera.filter(|c| c.iter().all(|v| v.is_finite()));
+        self
     }
 
     /// With `shapes` by object name.
     pub fn new(shapes: HashMap<String, Shape>, margin_m: f64, max_age_s: f64, base_frame: &str) -> Self {
-        Self { shapes, margin_m, max_age_s, base_frame: base_frame.to_owned(), world: None }
+        Self { shapes, margin_m, max_age_s, base_frame: base_frame.to_owned(), camera: None, world: None }
     }
 
     /// Number of objects with a known shape.
@@ -166,9 +188,8 @@ impl SceneObjects {
             if !link.valid || !link.obstacle_point.iter().all(|v| v.is_finite()) {
                 continue;
             }
-            let on = objects
-                .iter()
-                .find(|k| k.shape.contains_grown(&k.pose.inverse_transform_point(&link.obstacle_point), self.margin_m));
+            let p = Point3::from(link.obstacle_point);
+            let on = objects.iter().find(|k| self.on_or_behind(k, &p));
             if let Some(k) = on {
                 *mark = true;
                 link.obstacle_velocity = k.velocity;
@@ -176,6 +197,29 @@ impl SceneObjects {
             }
         }
         Some(n)
+    }
+
+    /// `p` (base frame) lies in `k`'s shape grown by the margin, or in its shadow: the segment
+    /// from the camera to `p` passes through that grown shape. Sampled from `p` towards the
+    /// camera in steps no longer than the margin (at most 2 m of it: fDED's gray area ends at
+    /// the table), so a grown shape is never stepped over.
+    fn on_or_behind(&self, k: &Known, p: &Point3<f64>) -> bool {
+        let local = |x: &Point3<f64>| k.pose.inverse_transform_point(x);
+        if k.shape.contains_grown(&local(p), self.margin_m) {
+            return true;
+        }
+        let Some(c) = self.camera else { return false };
+        let to_camera = c - p;
+        let length = to_camera.norm();
+        if !(length > 1e-9) {
+            return false;
+        }
+        let step = self.margin_m.clamp(0.005, 0.02);
+        let steps = (length.min(2.0) / step).ceil() as usize;
+        (1..=steps).any(|i| {
+            let x = p + to_camera * ((i as f64 * step).min(length) / length);
+            k.shape.contains_grown(&local(&x), self.margin_m)
+        })
     }
 }
 
@@ -254,6 +298,35 @@ mod tests {
         s.on_world(&world(1.0, "lwr_base_link", 0.06)).expect("good report");
         d.links[0].valid = false;
         assert_eq!(s.mark(&mut d), Some(0));
+    }
+
+    #[test]
+    fn a_point_in_a_known_objects_shadow_is_the_object() {
+        // fDED's gray area: behind the jar (seen from the camera) the obstacle point lies on a
+        // jar pixel's ray at the robot point's depth, 5–10 cm beyond the jar's surface.
+        let shapes = HashMap::from([("coffee".to_owned(), Shape::Cylinder { radius: 0.045, height: 0.12 })]);
+        let camera = Point3::new(1.9, 0.9, 1.2);
+        let jar = Point3::new(0.45, -0.35, 0.06);
+        let away = (jar - camera).normalize();
+        let behind = jar + away * 0.10;
+        let in_front = jar - away * 0.15;
+        let beside = [0.45, -0.18, 0.10];
+        let pts = [[behind.x, behind.y, behind.z], [in_front.x, in_front.y, in_front.z], beside];
+        let mut plain = SceneObjects::new(shapes.clone(), 0.04, 0.2, "lwr_base_link");
+        plain.on_world(&world(1.0, "lwr_base_link", 0.06)).expect("good report");
+        let mut d = distances(1.0, &pts);
+        assert_eq!(plain.mark(&mut d), Some(0), "without a camera only the shape counts");
+        let mut s = SceneObjects::new(shapes, 0.04, 0.2, "lwr_base_link").with_camera(Some(camera));
+        s.on_world(&world(1.0, "lwr_base_link", 0.06)).expect("good report");
+        let mut d = distances(1.0, &pts);
+        assert_eq!(s.mark(&mut d), Some(1));
+        assert_eq!(&d.scene_object[..3], &[true, false, false], "in the shadow only; in front of and beside the jar stay unknown");
+        // A non-finite camera is ignored (shape test only).
+        let shapes = HashMap::from([("coffee".to_owned(), Shape::Cylinder { radius: 0.045, height: 0.12 })]);
+        let mut nan = SceneObjects::new(shapes, 0.04, 0.2, "lwr_base_link").with_camera(Some(Point3::new(f64::NAN, 0.0, 0.0)));
+        nan.on_world(&world(1.0, "lwr_base_link", 0.06)).expect("good report");
+        let mut d = distances(1.0, &pts);
+        assert_eq!(nan.mark(&mut d), Some(0));
     }
 
     #[test]
