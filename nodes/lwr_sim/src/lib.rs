@@ -6,9 +6,16 @@
 //! Inputs: `/lwr/joint_velocity_command` (std_msgs/Float64MultiArray, 7 values, rad/s),
 //! `/lwr/gripper_command` (std_msgs/String `open` / `close`), `/external_wrench`
 //! (geometry_msgs/WrenchStamped: expressed in `header.frame_id` and applied at its origin; an empty
-//! frame or the base link means a base-frame wrench at the tool point).
+//! frame or the base link means a base-frame wrench at the tool point). What a wrench does
+//! depends on [`WrenchMode`]: in `teach` mode (the default) the arm yields to it by admittance
+//! (zero-gravity kinesthetic teaching); in `execute` mode the arm does not move by itself: the
+//! wrench is *reported* on `/lwr/external_wrench` (geometry_msgs/WrenchStamped, `header.frame_id`
+//! = the contact link, force and torque in that link's frame, at `external_wrench.report_rate_hz`
+//! while it acts) for the controller's task transition control (thesis Sec. 4.1.2), as the
+//! LWR's joint torque sensors report a person's push while it runs a motion.
 //! `/human/skeleton` (cowork_msgs/Skeleton, base frame): each person is drawn in the depth image
-//! as a capsule body on the floor (see [`depth::People`]).
+//! as a capsule body on the floor (see [`depth::People`]). `/lwr/place_object`
+//! (cowork_msgs/WorldObject): a person moves a scene object (see [`person`]).
 //! Outputs: `/clock`, `/joint_states`, `/tf` (link tree parent → child, objects), `/tf_static` (camera),
 //! `/lwr/world` (cowork_msgs/WorldState: gripper, held object, tool pose, every object's pose,
 //! tool distance and tilt, at `publish.world_rate_hz`; what the robot manager and the
@@ -18,6 +25,7 @@
 //! QoS), rendered by a worker thread from the newest state (see [`depth`]).
 
 pub mod depth;
+pub mod person;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -60,6 +68,38 @@ impl Default for PublishRates {
     }
 }
 
+/// Topic of [`LwrSim::reported_wrench`].
+pub const TOPIC_EXTERNAL_WRENCH: &str = "/lwr/external_wrench";
+
+/// What an `/external_wrench` does to the arm.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum WrenchMode {
+    /// Kinesthetic teaching: the arm yields by admittance (ẋ = c f at the link), whatever
+    /// the joint velocity command.
+    #[default]
+    Teach,
+    /// Executing: the arm moves only as commanded; the wrench is reported on
+    /// [`TOPIC_EXTERNAL_WRENCH`] for the controller.
+    Execute,
+}
+
+/// The `external_wrench:` block.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct WrenchConfig {
+    /// `teach` (admittance) or `execute` (reported).
+    pub mode: WrenchMode,
+    /// Rate of `/lwr/external_wrench` while a wrench acts (execute mode), Hz of simulated time.
+    pub report_rate_hz: f64,
+}
+
+impl Default for WrenchConfig {
+    fn default() -> Self {
+        Self { mode: WrenchMode::Teach, report_rate_hz: 1000.0 }
+    }
+}
+
 /// The `lwr_sim: ros__parameters:` block.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -70,6 +110,8 @@ pub struct LwrSimConfig {
     pub publish: PublishRates,
     /// The simulated depth camera.
     pub depth: DepthConfig,
+    /// What an `/external_wrench` does (teach: admittance; execute: reported).
+    pub external_wrench: WrenchConfig,
 }
 
 impl LwrSimConfig {
@@ -82,6 +124,7 @@ impl LwrSimConfig {
             ("publish.joint_state_rate_hz", self.publish.joint_state_rate_hz),
             ("publish.tf_rate_hz", self.publish.tf_rate_hz),
             ("publish.world_rate_hz", self.publish.world_rate_hz),
+            ("external_wrench.report_rate_hz", self.external_wrench.report_rate_hz),
         ] {
             if !(v.is_finite() && v > 0.0 && v <= max) {
                 bail!("{place}: `{field}` = {v} must be in (0, {max}] Hz (one message per step at most)");
@@ -124,6 +167,8 @@ pub struct Due {
     pub world: bool,
     /// A depth camera frame (at the scene camera's rate).
     pub depth: bool,
+    /// `/lwr/external_wrench` (execute mode, while a wrench acts).
+    pub wrench: bool,
 }
 
 /// The simulator with its message conversions.
@@ -142,6 +187,11 @@ pub struct LwrSim {
     people: People,
     /// `Some` when wrenches are applied at their header stamps ([`follow_wrench_stamps`](Self::follow_wrench_stamps)).
     follow: Option<FollowWrench>,
+    wrench_mode: WrenchMode,
+    every_wrench: u64,
+    wrench_timeout_ns: i64,
+    /// Execute mode: the acting wrench (base frame), its link and when it arrived (ns).
+    reported: Option<(Wrench, usize, i64)>,
 }
 
 /// Wrenches waiting for their stamp, and the newest stamp received (ns).
@@ -178,9 +228,47 @@ impl LwrSim {
                 velocity: vec![0.0; n],
                 ..Default::default()
             },
-            sim,
             follow: None,
+            wrench_mode: config.external_wrench.mode,
+            every_wrench: every(config.external_wrench.report_rate_hz),
+            wrench_timeout_ns: (sim.params().wrench_timeout_s * 1e9) as i64,
+            reported: None,
+            sim,
         }
+    }
+
+    /// Teach (admittance) or execute (reported) mode for `/external_wrench` from now on; a
+    /// reported wrench is dropped at a change (an applied one ends within `wrench_timeout_s`).
+    pub fn set_wrench_mode(&mut self, mode: WrenchMode) {
+        if mode != self.wrench_mode {
+            self.reported = None;
+        }
+        self.wrench_mode = mode;
+    }
+
+    /// The current [`WrenchMode`].
+    pub fn wrench_mode(&self) -> WrenchMode {
+        self.wrench_mode
+    }
+
+    /// Execute mode: the acting wrench as `/lwr/external_wrench` reports it — stamped now,
+    /// `header.frame_id` the contact link, force and torque in that link's frame at the
+    /// current pose; `None` when no wrench acts (none received within `wrench_timeout_s`).
+    pub fn reported_wrench(&self) -> Option<WrenchStamped> {
+        let (w, link, t) = self.reported?;
+        if self.sim.time_ns() - t > self.wrench_timeout_ns {
+            return None;
+        }
+        let r = self.sim.link_poses().get(link).rotation;
+        let f = r.inverse() * w.force;
+        let m = r.inverse() * w.torque;
+        Some(WrenchStamped {
+            header: Header { stamp: self.now(), frame_id: self.sim.model().link_names()[link].clone() },
+            wrench: cowork_msgs::geometry_msgs::Wrench {
+                force: Vector3 { x: f.x, y: f.y, z: f.z },
+                torque: Vector3 { x: m.x, y: m.y, z: m.z },
+            },
+        })
     }
 
     /// Replaying a recorded teacher: from now on every `/external_wrench` is applied when
@@ -271,6 +359,17 @@ impl LwrSim {
                 }
             }
         };
+        if self.wrench_mode == WrenchMode::Execute {
+            // Reported, not applied: the arm moves only as the controller commands.
+            if let Some((i, v)) = force.iter().chain(torque.iter()).enumerate().find(|(_, v)| !v.is_finite()) {
+                self.reported = None;
+                tracing::warn!("/external_wrench rejected: component {i} is {v}");
+                return;
+            }
+            let index = link.and_then(|l| self.sim.model().link_index(l)).unwrap_or(self.sim.model().tip_link());
+            self.reported = Some((Wrench { force, torque }, index, self.sim.time_ns()));
+            return;
+        }
         if let Err(e) = self.sim.set_wrench(Wrench { force, torque }, link) {
             tracing::warn!("/external_wrench rejected: {e}");
         }
@@ -311,6 +410,9 @@ impl LwrSim {
             tf: self.steps % self.every_tf == 0,
             world: self.steps % self.every_world == 0,
             depth: self.camera_clock.due(self.sim.time_ns()),
+            wrench: self.wrench_mode == WrenchMode::Execute
+                && self.steps % self.every_wrench == 0
+                && self.reported.is_some_and(|(_, _, t)| self.sim.time_ns() - t <= self.wrench_timeout_ns),
         }
     }
 
@@ -477,11 +579,13 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
     let wrenches = node.subscription::<WrenchStamped>("/external_wrench", &qos::reliable_depth(1000))?;
     // Best effort matches every writer (reliable bags, best-effort trackers).
     let skeletons = node.subscription::<Skeleton>("/human/skeleton", &qos::best_effort_depth(20))?;
+    let placements = node.subscription::<WorldObject>(person::TOPIC_PLACE_OBJECT, &qos::reliable_depth(100))?;
     let clock = node.publisher::<Clock>("/clock", &qos::clock())?;
     let joint_states = node.publisher::<JointState>("/joint_states", &qos::reliable())?;
     let tf = node.publisher::<TFMessage>("/tf", &qos::reliable_depth(100))?;
     let tf_static = node.publisher::<TFMessage>("/tf_static", &qos::latched())?;
     let world = node.publisher::<WorldState>(TOPIC_WORLD, &qos::reliable_depth(100))?;
+    let wrench_report = node.publisher::<WrenchStamped>(TOPIC_EXTERNAL_WRENCH, &qos::reliable_depth(100))?;
     tf_static.publish(lwr.tf_static())?;
     // Latched, as robot_state_publisher's: a viewer that joins later still gets it.
     let description = node.publisher::<RosString>("/robot_description", &qos::latched())?;
@@ -502,9 +606,13 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         None
     };
     tracing::info!(
-        "lwr_sim running: {} joints, {} objects, pacing {pacing:?}",
+        "lwr_sim running: {} joints, {} objects, pacing {pacing:?}, /external_wrench: {}",
         lwr.joint_state.name.len(),
-        lwr.sim.objects().len()
+        lwr.sim.objects().len(),
+        match lwr.wrench_mode {
+            WrenchMode::Teach => "teach (the arm yields by admittance)".to_owned(),
+            WrenchMode::Execute => format!("execute (reported on {TOPIC_EXTERNAL_WRENCH}, the arm moves only as commanded)"),
+        }
     );
 
     let end_ns = duration.map(|d| (d * 1e9) as i64);
@@ -526,6 +634,9 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         while let Some(m) = skeletons.take() {
             lwr.on_skeleton(&m);
         }
+        while let Some(m) = placements.take() {
+            lwr.on_place_object(&m);
+        }
         if lwr.waiting_for_wrench() {
             // The replayed teacher is behind: wait for it, and keep the pace from here on.
             let held = Instant::now();
@@ -545,6 +656,11 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         }
         if due.world {
             world.publish(lwr.world())?;
+        }
+        if due.wrench
+            && let Some(w) = lwr.reported_wrench()
+        {
+            wrench_report.publish(w)?;
         }
         if due.depth {
             if let Some((mailbox, _)) = &camera {

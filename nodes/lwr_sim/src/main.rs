@@ -36,6 +36,11 @@ struct Args {
     /// let simulated time pass the newest stamp received (a slow teacher holds the clock).
     #[arg(long)]
     follow_wrench_stamps: bool,
+    /// What an /external_wrench does: `teach` (the arm yields by admittance) or `execute`
+    /// (reported on /lwr/external_wrench for the controller; the arm moves only as commanded).
+    /// Overrides `external_wrench.mode` of the parameter file.
+    #[arg(long, value_enum)]
+    wrench_mode: Option<lwr_sim::WrenchMode>,
 }
 
 /// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
@@ -64,6 +69,9 @@ fn run() -> Result<()> {
     let mut lwr = LwrSim::new(sim, config);
     if args.follow_wrench_stamps {
         lwr.follow_wrench_stamps();
+    }
+    if let Some(mode) = args.wrench_mode {
+        lwr.set_wrench_mode(mode);
     }
     lwr_sim::run(node, lwr, pacing, args.duration)
 }
