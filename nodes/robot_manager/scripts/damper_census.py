@@ -5,6 +5,8 @@ link's closest obstacle point is classified from what the simulator reported (`/
 object poses, `/tf` link frames), never from what fDED believed:
 
 - `object NAME (held|target|scene)`: inside the scene object's shape grown by 4 cm;
+- `shadow of NAME`: behind that object seen from the scene's camera (fDED's gray area, eq.
+  5.17: the segment from the camera to the point passes through the grown shape);
 - `table`: within 4 cm of the table top (z = 0);
 - `robot`: within 9 cm of the robot's link chain (self-pixels left by the robot removal);
 - `unexplained`: anything else (printed with coordinates).
@@ -89,6 +91,7 @@ def main():
     with open(scene_path) as f:
         scene = yaml.safe_load(f)
     shapes = {o["name"]: o["shape"] for o in scene["objects"]}
+    camera = tuple(scene["camera"]["pose"]["position"]) if "camera" in scene else None
     worlds, tfs, dists, statuses, events = [], [], [], [], []
     for m in read_ros2_messages(path, topics=["/lwr/world", "/tf", "/fded/distances", "/motion/status", "/robot_stream"]):
         msg = m.ros_msg
@@ -159,6 +162,16 @@ def main():
                 role = "held" if name == held else ("target" if name == target else "scene")
                 cls = f"object {name} ({role})"
                 break
+        if cls is None and camera is not None:
+            for name, pose in objs.items():
+                if name not in shapes:
+                    continue
+                length = math.dist(p, camera)
+                steps = int(min(length, 2.0) / 0.01)
+                if any(inside(shapes[name], pose, [p[k] + (camera[k] - p[k]) * (0.01 * i / length) for k in range(3)], OBJECT_MARGIN)
+                       for i in range(1, steps + 1)):
+                    cls = f"shadow of {name}"
+                    break
         if cls is None and abs(p[2]) <= TABLE_BAND:
             cls = "table"
         if cls is None:
