@@ -27,18 +27,19 @@ use anyhow::{Result, bail};
 use cowork_ds::goal::Reach;
 use cowork_ds::primitive::{ConstantSpeed, Linear};
 use cowork_ds::{
-    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, Fault, HoldReason,
-    HumanInput, HumanMode, HumanState, LearnedField, LinkDistance, MotionCommand, Primitive, Status,
-    Stream,
+    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, ExternalWrench, Fault,
+    HoldReason, HumanInput, HumanMode, HumanState, LearnedField, LinkDistance, MotionCommand,
+    Primitive, Status, Stream, WrenchIgnored,
 };
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{
     HumanState as HumanStateMsg, LinkDistances, MotionCommand as MotionCommandMsg, MotionStatus,
     WorldState,
 };
+use cowork_msgs::geometry_msgs::WrenchStamped;
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::{Float64MultiArray, Header};
-use cowork_robot::{DOF, JointVector, MAX_LINKS, RobotModel};
+use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
 use cowork_ros::{RosNode, qos};
 use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -103,6 +104,10 @@ impl Params {
     }
 }
 
+/// The push lwr_sim reports in execute mode (geometry_msgs/WrenchStamped, `header.frame_id` =
+/// the contact link, force in that link's frame).
+pub const TOPIC_EXTERNAL_WRENCH: &str = "/lwr/external_wrench";
+
 /// A latest-value mailbox of `Copy` data between the ROS side and the real-time loop. The lock
 /// is held only for a copy (no allocation, no I/O under it).
 #[derive(Debug, Default)]
@@ -163,6 +168,9 @@ pub struct RtInputs {
     pub human: HumanInput,
     /// The newest distances message was rejected by the adapter (with this reason).
     pub distances_rejected: Option<&'static str>,
+    /// The newest accepted `/lwr/external_wrench` (a person's push, base frame); `None` before
+    /// the first and after a rejected one. It acts while younger than `ttc.max_wrench_age_s`.
+    pub wrench: Option<ExternalWrench>,
 }
 
 impl Default for RtInputs {
@@ -179,6 +187,7 @@ impl Default for RtInputs {
             distances: Distances::NEVER,
             human: HumanInput { stamp: f64::NEG_INFINITY, state: HumanState::default() },
             distances_rejected: None,
+            wrench: None,
         }
     }
 }
@@ -200,6 +209,13 @@ pub struct RtOutput {
     pub waiting_for_joints: bool,
     /// The link whose approach the link-distance damper limited this step (model index).
     pub approach_limited: Option<usize>,
+    /// Task transition control is blending a push in: the contact link (model index, `None`
+    /// once the touch is over) and the stack with the largest weight (0 T_ee, 1 [T_ee, T_ic],
+    /// 2 [T_ic, T_ee]).
+    pub guided: Option<(Option<usize>, u8)>,
+    /// The step did not use the newest push, and why (a push that ended ages into
+    /// [`WrenchIgnored::Stale`] with a positive age: the normal end of a touch).
+    pub wrench_ignored: Option<WrenchIgnored>,
 }
 
 /// The node's clock, shared by both threads: wall time (s since the epoch) or `/clock` time
@@ -249,6 +265,8 @@ pub fn rt_step(
             goal_error: f64::NAN,
             waiting_for_joints: true,
             approach_limited: None,
+            guided: None,
+            wrench_ignored: None,
         };
     };
     let age = t - q_stamp;
@@ -268,8 +286,19 @@ pub fn rt_step(
             human: inputs.human,
         };
         // A fault is reported through `out.status` (Held with the fault).
-        let _ = ctl.step_with_field(&input, field, out);
+        let _ = ctl.step_with_contact(&input, field, inputs.wrench.as_ref(), out);
     }
+    let c = &out.diagnostics.contact;
+    let guided = (c.weights[0] < 1.0 && !matches!(out.status, Status::Held(_))).then(|| {
+        let top = if c.weights[2] >= c.weights[1] && c.weights[2] >= c.weights[0] {
+            2
+        } else if c.weights[1] >= c.weights[0] {
+            1
+        } else {
+            0
+        };
+        (c.link, top)
+    });
     RtOutput {
         time: t,
         qdot: out.qdot,
@@ -278,6 +307,8 @@ pub fn rt_step(
         goal_error: out.diagnostics.goal_error_m,
         waiting_for_joints: false,
         approach_limited: if out.diagnostics.safety.active { out.diagnostics.safety.link } else { None },
+        guided,
+        wrench_ignored: out.diagnostics.contact.ignored,
     }
 }
 
@@ -362,6 +393,9 @@ pub struct Rejection {
 /// Message conversions and validation (no I/O).
 #[derive(Debug, Clone)]
 pub struct Adapter {
+    model: RobotModel,
+    max_wrench_age_s: f64,
+    max_force: f64,
     joint_names: Vec<String>,
     link_names: Vec<String>,
     reach: Reach,
@@ -374,6 +408,9 @@ impl Adapter {
     /// For `model` with `params`.
     pub fn new(model: &RobotModel, params: &Params) -> Self {
         Self {
+            model: model.clone(),
+            max_wrench_age_s: params.controller.ttc.max_wrench_age_s,
+            max_force: params.controller.ttc.max_force,
             joint_names: model.joint_names().to_vec(),
             link_names: model.link_names().to_vec(),
             reach: Reach::of_model(model),
@@ -459,6 +496,40 @@ impl Adapter {
         Ok(d)
     }
 
+    /// `/lwr/external_wrench` → the push for task transition control: `header.frame_id` names
+    /// the contact link (a link of the robot model), the force is expressed in that link's
+    /// frame and turned into the base frame at the joint positions `q` (the newest
+    /// `/joint_states`), `now` is the node's clock (s). Refused, naming the reason: no joint
+    /// reading yet, an unknown or empty frame, a NaN / infinite force or stamp, a force above
+    /// `ttc.max_force`, a stamp more than `ttc.max_wrench_age_s` away from `now` (either way).
+    pub fn wrench(&self, msg: &WrenchStamped, q: Option<&JointVector>, now: f64) -> Result<ExternalWrench, Rejection> {
+        let bad = |reason: String| Err(Rejection { reason });
+        let frame = msg.header.frame_id.as_str();
+        let Some(link) = self.link_names.iter().position(|n| n == frame) else {
+            return bad(format!("unknown contact frame {frame:?} (expected a link of the robot model)"));
+        };
+        let f = &msg.wrench.force;
+        let local = Vector3::new(f.x, f.y, f.z);
+        let stamp = msg.header.stamp.to_secs_f64();
+        if !(local.iter().all(|v| v.is_finite()) && stamp.is_finite()) {
+            return bad(format!("non-finite force ({}, {}, {}) N on {frame}", f.x, f.y, f.z));
+        }
+        let norm = local.norm();
+        if norm > self.max_force {
+            return bad(format!("force {norm:.1} N on {frame} exceeds ttc.max_force {} N", self.max_force));
+        }
+        let age = now - stamp;
+        if !(age.abs() <= self.max_wrench_age_s) {
+            return bad(format!("stale: stamped {age:.3} s before now (bound ±ttc.max_wrench_age_s = {} s)", self.max_wrench_age_s));
+        }
+        let Some(q) = q else {
+            return bad("no /joint_states yet (the contact link's orientation is unknown)".into());
+        };
+        let mut poses = LinkPoses::new();
+        self.model.forward_kinematics(q, &mut poses);
+        Ok(ExternalWrench { stamp, link, force: poses.get(link).rotation * local })
+    }
+
     /// `/human/state` → what the controller needs.
     pub fn human(&self, msg: &HumanStateMsg) -> Result<HumanState, Rejection> {
         let mode = match msg.mode {
@@ -536,9 +607,16 @@ impl Adapter {
             return "waiting for /joint_states".into();
         }
         match o.status {
-            Status::Running | Status::Converged => match limited {
-                Some(l) => format!("approach limited: {}", self.link_name(l)),
-                None => String::new(),
+            Status::Running | Status::Converged => match (o.guided, limited) {
+                (Some((link, stack)), _) => {
+                    let stack = ["T_ee", "[T_ee, T_ic]", "[T_ic, T_ee]"][usize::from(stack.min(2))];
+                    match link {
+                        Some(l) => format!("guided: push on {}, {stack}", self.link_name(l)),
+                        None => format!("guided: push released, {stack}"),
+                    }
+                }
+                (None, Some(l)) => format!("approach limited: {}", self.link_name(l)),
+                (None, None) => String::new(),
             },
             Status::Held(HoldReason::Command) if o.command_id == 0 => "waiting for /motion/command".into(),
             Status::Held(HoldReason::Command) => "hold command".into(),
@@ -587,6 +665,13 @@ pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunO
     let human_sub = node.subscription::<HumanStateMsg>("/human/state", &qos::reliable())?;
     let cmd_sub = node.subscription::<MotionCommandMsg>("/motion/command", &qos::reliable_depth(10))?;
     let world_sub = node.subscription::<WorldState>("/lwr/world", &qos::reliable_depth(10))?;
+    // Task transition control: the push lwr_sim reports in execute mode (1 kHz while it lasts;
+    // only the newest counts).
+    let wrench_sub = if params.controller.ttc.enabled {
+        Some(node.subscription::<WrenchStamped>(TOPIC_EXTERNAL_WRENCH, &qos::best_effort_depth(100))?)
+    } else {
+        None
+    };
     let vel_pub = node.publisher::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())?;
     let status_pub = node.publisher::<MotionStatus>("/motion/status", &qos::reliable_depth(10))?;
 
@@ -614,12 +699,22 @@ pub fn run(mut node: RosNode, model: RobotModel, params: &Params, options: &RunO
         scene.known(),
         if params.scene_objects.scene.is_empty() { String::new() } else { format!(" from {}", params.scene_objects.scene) }
     );
+    let t = &params.controller.ttc;
+    if t.enabled {
+        tracing::info!(
+            "task transition control on: pushes from {TOPIC_EXTERNAL_WRENCH}, f_i = {} N, f_s = {} N, c = {} m/(N s)",
+            t.insert_force, t.switch_force, t.contact_gain
+        );
+    } else {
+        tracing::info!("task transition control off (controller.ttc.enabled: false): pushes are not read");
+    }
     let result = serve(&node, &adapter, params, options, &clock, &inputs, &rx, ServeIo {
         joint_sub: &joint_sub,
         dist_sub: &dist_sub,
         human_sub: &human_sub,
         cmd_sub: &cmd_sub,
         world_sub: &world_sub,
+        wrench_sub: wrench_sub.as_ref(),
         scene: &mut scene,
         vel_pub: &vel_pub,
         status_pub: &status_pub,
@@ -642,6 +737,7 @@ struct ServeIo<'a> {
     human_sub: &'a cowork_ros::Subscription<HumanStateMsg>,
     cmd_sub: &'a cowork_ros::Subscription<MotionCommandMsg>,
     world_sub: &'a cowork_ros::Subscription<WorldState>,
+    wrench_sub: Option<&'a cowork_ros::Subscription<WrenchStamped>>,
     scene: &'a mut SceneObjects,
     vel_pub: &'a cowork_ros::Publisher<Float64MultiArray>,
     status_pub: &'a cowork_ros::Publisher<MotionStatus>,
@@ -677,6 +773,9 @@ fn serve(
             scene_warned = Some(Instant::now());
         }
     };
+    // Refused pushes: one warning at most every 2 s (wall), with the count since the last one.
+    let mut wrench_warned: Option<Instant> = None;
+    let mut wrench_refused: u64 = 0;
     loop {
         if cowork_ros::shutdown::requested()
             || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
@@ -726,6 +825,25 @@ fn serve(
                     inputs.update(|i| i.distances_rejected = Some("malformed message (see the log)"));
                     publish_status(io.status_pub, node.now(), inputs.read().command.id, MotionStatus::STATE_HELD,
                         format!("rejected /fded/distances: {}", r.reason), f64::NAN)?;
+                }
+            }
+        }
+        while let Some(m) = io.wrench_sub.and_then(|s| s.take()) {
+            let q = inputs.read().joints.map(|(q, _)| q);
+            match adapter.wrench(&m, q.as_ref(), node.now().to_secs_f64()) {
+                Ok(w) => inputs.update(|i| i.wrench = Some(w)),
+                Err(r) => {
+                    // Robot safe: the push is not used, the primitive runs on as without one.
+                    inputs.update(|i| i.wrench = None);
+                    wrench_refused += 1;
+                    if wrench_warned.is_none_or(|t| t.elapsed() >= Duration::from_secs(2)) {
+                        tracing::warn!(
+                            "{TOPIC_EXTERNAL_WRENCH} ignored ({wrench_refused} refused since the last warning): {}; the primitive runs on without the push",
+                            r.reason
+                        );
+                        wrench_warned = Some(Instant::now());
+                        wrench_refused = 0;
+                    }
                 }
             }
         }
@@ -794,6 +912,19 @@ fn serve(
             }
         }
         let Some(o) = newest else { continue };
+        // A push the loop refused although the adapter took it: stamped in the loop's future
+        // (the clocks disagree), or one the loop judges otherwise. Ageing after the touch is not
+        // news.
+        if let Some(why) = o.wrench_ignored
+            && !matches!(why, WrenchIgnored::Stale { age_s } if age_s >= 0.0)
+        {
+            wrench_refused += 1;
+            if wrench_warned.is_none_or(|t| t.elapsed() >= Duration::from_secs(2)) {
+                tracing::warn!("{TOPIC_EXTERNAL_WRENCH} not used by the control loop ({wrench_refused} since the last warning): {why}");
+                wrench_warned = Some(Instant::now());
+                wrench_refused = 0;
+            }
+        }
         if let Some(l) = o.approach_limited {
             limited = Some((l, o.time));
         } else if limited.is_some_and(|(_, t)| !(o.time - t <= 0.2 && o.time >= t)) {

@@ -418,8 +418,8 @@ pub struct ExternalWrench {
 pub enum WrenchIgnored {
     /// `ttc.enabled` is false.
     Disabled,
-    /// Older than `ttc.max_wrench_age_s`, or stamped in the future beyond
-    /// `future_tolerance_s` (s): the touch is over (or the clock went back).
+    /// Older than `ttc.max_wrench_age_s`, or stamped more than that in the future (s): the
+    /// touch is over (or the clock went back).
     Stale {
         /// Age (s).
         age_s: f64,
@@ -727,7 +727,10 @@ impl DsController {
             return Err(WrenchIgnored::NonFinite);
         }
         let age = time - wrench.stamp;
-        if !(age <= self.cfg.ttc.max_wrench_age_s && age >= -self.cfg.future_tolerance_s) {
+        // Symmetric: lwr_sim stamps its report with its own time, which runs up to a few tens
+        // of ms ahead of a loaded controller's mirrored /clock (joint states show the same);
+        // a clock that went back is off by far more.
+        if !(age.abs() <= self.cfg.ttc.max_wrench_age_s) {
             return Err(WrenchIgnored::Stale { age_s: age });
         }
         let force_n = wrench.force.norm();
