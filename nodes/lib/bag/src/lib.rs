@@ -56,4 +56,4 @@ pub use image::{bytes_per_pixel, check_image};
 pub use read::{BagInfo, BagReader, ChannelInfo, Messages, RawMessage, TopicInfo, storage_file};
 pub use rosbag2::{Rosbag2Metadata, Rosbag2Topic, rosbag2_storage_path};
 pub use play::{PlayItem, PlayOptions, Player, Rate, Schedule};
-pub use write::{BagWriter, ChannelId, WriteSummary};
+pub use write::{BagWriter, ChannelId, DEFAULT_CHUNK_SPAN_S, WriteSummary};

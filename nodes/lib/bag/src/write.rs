@@ -23,6 +23,11 @@ struct ChannelEntry {
     sequence: u32,
 }
 
+fn cowork_span_ns(s: f64) -> u64 {
+    // Capped at ~292 years (u64 ns): larger spans are "never by time".
+    (s * 1e9).min(u64::MAX as f64) as u64
+}
+
 /// What [`BagWriter::finish`] wrote.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct WriteSummary {
@@ -45,7 +50,19 @@ pub struct BagWriter {
     by_topic: HashMap<String, usize>,
     buffer: Vec<u8>,
     message_count: u64,
+    /// Close the open chunk once it spans this much log time (ns); `None`: by size only.
+    chunk_span_ns: Option<u64>,
+    /// Log time of the first message of the open chunk.
+    chunk_first_ns: Option<u64>,
+    /// Chunks closed by [`chunk_span_ns`](Self::chunk_span_ns) or [`flush`](Self::flush).
+    flushes: u64,
 }
+
+/// Log time a chunk spans at most before [`BagWriter`] closes and flushes it, s: a recorder
+/// killed (`kill -9`, power loss before the page cache is written aside) loses at most the
+/// open chunk, i.e. about this much of the recording; the file stays readable up to the last
+/// closed chunk (`BagReader::open_recoverable`).
+pub const DEFAULT_CHUNK_SPAN_S: f64 = 1.0;
 
 impl std::fmt::Debug for BagWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -81,7 +98,47 @@ impl BagWriter {
             by_topic: HashMap::new(),
             buffer: Vec::new(),
             message_count: 0,
+            chunk_span_ns: Some((DEFAULT_CHUNK_SPAN_S * 1e9) as u64),
+            chunk_first_ns: None,
+            flushes: 0,
         })
+    }
+
+    /// Closes and flushes the open chunk once it spans `span_s` seconds of log time
+    /// (default [`DEFAULT_CHUNK_SPAN_S`]); `None` closes chunks by size only (the `mcap`
+    /// crate's 5.8 MB of uncompressed records). Log time, not wall time, so that a bag written
+    /// from a seed (`cowork bag synth`) has the same bytes however fast it is written, while
+    /// a live recorder (log time = receive time) loses at most about `span_s` to a crash.
+    /// Non-finite or non-positive spans are refused.
+    pub fn set_chunk_span(&mut self, span_s: Option<f64>) -> Result<()> {
+        self.chunk_span_ns = match span_s {
+            None => None,
+            Some(s) if s.is_finite() && s > 0.0 => Some(cowork_span_ns(s)),
+            Some(s) => {
+                return Err(BagError::Io {
+                    path: self.path.clone(),
+                    source: std::io::Error::new(
+                        std::io::ErrorKind::InvalidInput,
+                        format!("chunk span {s} s: must be a finite number of seconds > 0"),
+                    ),
+                });
+            }
+        };
+        Ok(())
+    }
+
+    /// Closes the open chunk (if any) and flushes the file, so that everything written so far
+    /// survives a crash of this process (e.g. a recorder with a stream that went quiet).
+    pub fn flush(&mut self) -> Result<()> {
+        self.inner.flush().map_err(|source| self.write_error(source))?;
+        self.chunk_first_ns = None;
+        self.flushes += 1;
+        Ok(())
+    }
+
+    /// Chunks closed early so far by the time bound or [`flush`](Self::flush).
+    pub fn flushes(&self) -> u64 {
+        self.flushes
     }
 
     /// The bag's path.
@@ -218,6 +275,13 @@ impl BagWriter {
                 source,
             })?;
         self.message_count += 1;
+        if let Some(span) = self.chunk_span_ns {
+            let first = *self.chunk_first_ns.get_or_insert(log_time_ns);
+            // Either direction: a clock that jumped back must not keep a chunk open forever.
+            if log_time_ns.abs_diff(first) >= span {
+                self.flush()?;
+            }
+        }
         Ok(())
     }
 
