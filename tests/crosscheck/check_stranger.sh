@@ -10,9 +10,14 @@
 #   tests/crosscheck/run.sh stranger
 #   ROS_DOMAIN_ID=150 bash tests/crosscheck/check_stranger.sh [chaos]   (chaos: the full chaos table)
 #   STRANGER_ONLY="human state" ... (one attack class);  STRANGER_LOGS=1 ... (the nodes' logs)
+#   bash tests/crosscheck/check_stranger.sh --secure   (DDS Security: the stranger, without
+#     credentials, floods a topic between two secured cowork processes -> "N sent, 0 through";
+#     needs target/release/cowork and, built with the security feature,
+#     cargo build --release -p cowork_ros --features security --example secure_peer)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
 : "${ROS_DOMAIN_ID:=78}"
 export CYCLONEDDS_URI="file://$PWD/tests/crosscheck/cyclonedds-loopback.xml"
-exec "$VENV/bin/python" tests/crosscheck/stranger.py "$ROS_DOMAIN_ID" "${1:-check}"
+mode="${1:-check}"
+exec "$VENV/bin/python" tests/crosscheck/stranger.py "$ROS_DOMAIN_ID" "${mode#--}"

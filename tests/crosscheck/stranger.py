@@ -26,11 +26,14 @@ through. Direct joint commands are expected to get through (lwr_sim obeys whoeve
 `/lwr/joint_velocity_command`: without DDS security any peer on the domain can drive the arm);
 they are reported, not failed. After the attacks, one chaos case (fded_distance killed, restarted 1.5 s later).
 
+Mode `secure`: DDS Security (see `secure` below): a peer without credentials floods a topic
+between two secured cowork processes; prints "N sent, 0 through".
+
 Mode `chaos`: no attacks; SIGSTOP (then SIGCONT) and SIGKILL (then a restart) of fded_distance,
 human_observer and ds_controller in turn during the shuttle, each down 2 s: time until the robot
 is held, tool path and joint motion after the fault, time to resume, shuttle legs completed.
 
-    python stranger.py DOMAIN [check|chaos]      (CYCLONEDDS_URI as check_stranger.sh sets it;
+    python stranger.py DOMAIN [check|chaos|secure]      (CYCLONEDDS_URI as check_stranger.sh sets it;
                                                  BIN=target/release, STRANGER_ONLY=substring)
 """
 
@@ -721,6 +724,77 @@ def chaos(peer, cases):
     return failed
 
 
+SECURITY_VARS = ("ROS_SECURITY_ENABLE", "ROS_SECURITY_STRATEGY", "ROS_SECURITY_KEYSTORE", "ROS_SECURITY_ENCLAVE_OVERRIDE")
+
+
+def secure(domain, root, bin_dir):
+    """Mode `secure`: DDS Security against this peer, which has no credentials.
+
+    A keystore from `cowork keystore create` with enclaves `listener` and `talker`; two cowork
+    processes (`secure_peer`, built with `--features security`) on `/speech_command`, the
+    listener counting what arrives per sender, the talker (a graph member) at 100 Hz; this
+    Cyclone DDS peer floods `/speech_command` at 100 Hz meanwhile. Run twice: without security
+    (the stranger's messages arrive: the check can fail) and with ROS_SECURITY_STRATEGY=Enforce
+    (the goal: 0 through, while the member still gets through).
+    """
+    cowork = os.path.join(bin_dir, "cowork")
+    peer_bin = os.environ.get("SECURE_PEER", os.path.join(bin_dir, "examples", "secure_peer"))
+    for b in (cowork, peer_bin):
+        if not os.access(b, os.X_OK):
+            return [f"{b} missing (cargo build --release -p cowork; cargo build --release -p cowork_ros --features security --example secure_peer)"]
+    ks = os.path.join(tempfile.mkdtemp(prefix="cowork-keystore-"), "keystore")
+    subprocess.run([cowork, "keystore", "create", ks], check=True, cwd=root)
+    subprocess.run([cowork, "keystore", "enclave", ks, "listener", "talker"], check=True, cwd=root)
+    qos = Qos(
+        Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=5)),
+        Policy.History.KeepLast(2000),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
+    failed = []
+    print("| run | stranger sent | stranger through | member sent | member through |")
+    print("|---|---|---|---|---|")
+    for secured in (False, True):
+        env = {k: v for k, v in os.environ.items() if k not in SECURITY_VARS}
+        env["ROS_DOMAIN_ID"] = str(domain)
+        if secured:
+            env.update(ROS_SECURITY_ENABLE="true", ROS_SECURITY_STRATEGY="Enforce", ROS_SECURITY_KEYSTORE=ks)
+        pipe = dict(stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=root)
+        listener = subprocess.Popen([peer_bin, "listen", "/speech_command", "11"],
+                                    env=dict(env, ROS_SECURITY_ENCLAVE_OVERRIDE="/listener"), **pipe)
+        talker = subprocess.Popen([peer_bin, "talk", "/speech_command", "member", "8"],
+                                  env=dict(env, ROS_SECURITY_ENCLAVE_OVERRIDE="/talker"), **pipe)
+        time.sleep(2.0)
+        dp = DomainParticipant(domain)
+        writer = DataWriter(dp, Topic(dp, "rt/speech_command", String), qos=qos)
+        sent = 0
+        end = time.time() + 6.0
+        while time.time() < end:
+            writer.write(String(data=f"stranger {sent}"))
+            sent += 1
+            time.sleep(0.01)
+        del writer, dp
+        l_out, l_err = listener.communicate(timeout=60)
+        t_out, t_err = talker.communicate(timeout=60)
+        try:
+            got = json.loads(l_out.strip().splitlines()[-1])["received"]
+            member_sent = json.loads(t_out.strip().splitlines()[-1])["sent"]
+        except (IndexError, ValueError, KeyError):
+            failed.append(f"secure_peer failed (security {'on' if secured else 'off'}):\n{l_err}\n{t_err}")
+            continue
+        through, member = got.get("stranger", 0), got.get("member", 0)
+        name = "Enforce (keystore, enclaves listener + talker)" if secured else "no security"
+        print(f"| {name} | {sent} | {through} | {member_sent} | {member} |")
+        if secured:
+            print(f"with security: {sent} sent, {through} through")
+            if through:
+                failed.append(f"with security {through} of the stranger's {sent} messages got through")
+            if member == 0:
+                failed.append("with security the member's messages did not arrive either (security broken, not enforced)")
+        elif through == 0:
+            failed.append("without security nothing of the stranger arrived: the check cannot tell")
+    return failed
+
+
 def main():
     args = sys.argv[1:]
     domain = int(args.pop(0))
@@ -728,6 +802,13 @@ def main():
     only = os.environ.get("STRANGER_ONLY")
     root = os.path.abspath(os.path.join(os.path.dirname(__file__), "../.."))
     bin_dir = os.path.join(root, os.environ.get("BIN", "target/release"))
+    if mode == "secure":
+        failed = secure(domain, root, bin_dir)
+        for f in failed:
+            print("FAIL:", f)
+        if not failed:
+            print("OK: with DDS security the stranger got nothing through, the member did")
+        return 1 if failed else 0
     logs = tempfile.mkdtemp(prefix="cowork-stranger-")
     graph = Graph(domain, root, bin_dir, scene_320(root, os.path.join(logs, "scene.yaml")), logs)
     failed = []

@@ -594,3 +594,48 @@ fn rosbag2_directories_open_their_storage_file() {
     let split = cowork_bag::BagReader::open(&bag_dir).expect_err("split bag");
     assert!(split.to_string().contains("2 storage files (run_0.mcap, run_1.mcap)"), "{split}");
 }
+
+/// A recorder killed mid-recording (`kill -9`: the writer never finishes, its buffered bytes
+/// never reach the file; here the writer is leaked) loses at most the open chunk, which the
+/// time bound keeps within [`cowork_bag::DEFAULT_CHUNK_SPAN_S`] of log time; by size alone a
+/// small stream loses everything.
+#[test]
+fn a_writer_killed_mid_recording_loses_at_most_the_last_second() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let n = 5_500u64; // 5.5 s of 1 kHz joint states
+    let write_then_die = |path: &Path, span: Option<f64>| -> anyhow::Result<u64> {
+        let mut w = BagWriter::create(path)?;
+        w.set_chunk_span(span)?;
+        let ch = w.add_channel::<JointState>("/joint_states")?;
+        for i in 0..n {
+            let t = 1_000_000_000 + i * 1_000_000;
+            let msg = JointState {
+                header: Header { stamp: Time::from_nanos(t as i64), frame_id: "lwr_base_link".into() },
+                name: vec!["lwr_a1_joint".into()],
+                position: vec![i as f64],
+                ..Default::default()
+            };
+            w.write(ch, t, t, &msg)?;
+        }
+        let flushes = w.flushes();
+        std::mem::forget(w);
+        Ok(flushes)
+    };
+    let read = |path: &Path| -> u64 {
+        BagReader::open_recoverable(path).map_or(0, |r| r.messages().filter(Result::is_ok).count() as u64)
+    };
+    let bounded = dir.path().join("bounded.mcap");
+    let flushes = write_then_die(&bounded, Some(cowork_bag::DEFAULT_CHUNK_SPAN_S))?;
+    let kept = read(&bounded);
+    eprintln!("1 s chunks: {flushes} flushes, {kept} of {n} messages recovered after the kill");
+    assert!(flushes >= 5, "{flushes}");
+    assert!(n - kept <= 1_001, "lost {} of {n} messages (more than 1 s at 1 kHz)", n - kept);
+    let unbounded = dir.path().join("by_size.mcap");
+    write_then_die(&unbounded, None)?;
+    let kept_by_size = read(&unbounded);
+    eprintln!("chunks by size only: {kept_by_size} of {n} messages recovered after the kill");
+    assert!(kept_by_size < kept, "{kept_by_size} vs {kept}");
+    let mut w = BagWriter::create(dir.path().join("bad.mcap"))?;
+    assert!(w.set_chunk_span(Some(f64::NAN)).is_err() && w.set_chunk_span(Some(0.0)).is_err());
+    Ok(())
+}

@@ -22,7 +22,7 @@ fn private_domain() -> u16 {
 }
 
 /// Runs this binary's `child` test as `role` with `env` (and no inherited `ROS_SECURITY_*`).
-fn child(role: &str, domain: u16, env: &[(&str, &str)]) -> Command {
+fn child_cmd(role: &str, domain: u16, env: &[(&str, &str)]) -> Command {
     let mut c = Command::new(std::env::current_exe().expect("test binary"));
     c.args(["child", "--exact", "--ignored", "--nocapture", "--test-threads=1"])
         .env(ROLE, role)
@@ -152,7 +152,7 @@ fn enforce_refuses_to_start_without_usable_credentials_permissive_runs() {
     let ks_s = ks.to_str().unwrap();
     let domain = private_domain();
     let run = |env: Vec<(&str, &str)>| {
-        let o = child("start", domain, &env).output().expect("child");
+        let o = child_cmd("start", domain, &env).output().expect("child");
         (o.status.code(), text(&o))
     };
     // No keystore at all.
@@ -201,10 +201,10 @@ fn secured_nodes_talk_and_peers_without_our_credentials_get_nothing_through() {
     create_enclave(&rogue_ks, "talker").expect("enclave");
     let (ks_s, rogue_s) = (ks.to_str().unwrap(), rogue_ks.to_str().unwrap());
     let domain = private_domain();
-    let listener = child("listen", domain, &secured(ks_s, "Enforce", "/listener")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("listener");
-    let talker = child("talk:talker", domain, &secured(ks_s, "Enforce", "/talker")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("talker");
-    let stranger = child("talk:stranger", domain, &[]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("stranger");
-    let rogue = child("talk:rogue", domain, &secured(rogue_s, "Enforce", "/talker")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("rogue");
+    let listener = child_cmd("listen", domain, &secured(ks_s, "Enforce", "/listener")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("listener");
+    let talker = child_cmd("talk:talker", domain, &secured(ks_s, "Enforce", "/talker")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("talker");
+    let stranger = child_cmd("talk:stranger", domain, &[]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("stranger");
+    let rogue = child_cmd("talk:rogue", domain, &secured(rogue_s, "Enforce", "/talker")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("rogue");
     let outs: Vec<String> = [listener, talker, stranger, rogue]
         .into_iter()
         .map(|c| text(&c.wait_with_output().expect("child")))
