@@ -11,7 +11,7 @@ use crate::error::{Error, Result, Warning};
 use crate::events::{Event, GripperState, ObjectObs};
 use crate::ltm::Ltm;
 use crate::schema::{ActionKind, Term};
-use crate::state::State;
+use crate::state::{GroundCond, State};
 use crate::teaching::{self, TeachSession};
 use crate::wm::{NodeId, NodeKind, Wm, status};
 
@@ -379,9 +379,29 @@ impl Supervisor {
         for (i, d) in per_arm {
             info.arm_distance_m[i] = Some(d);
         }
+        let returned = !info.visible && o.visible;
         info.visible = o.visible;
         if o.area.is_some() {
             info.area.clone_from(&o.area);
+        }
+        if returned {
+            self.human_returned(&o.name);
+        }
+    }
+
+    /// The object a person carried away is back in view: every unfinished behaviour about it
+    /// that the person took over (`human add(water)`) is done — its post-condition is asserted
+    /// and the `alive` pass accomplishes it (Fig. 5.21: the robot then goes on with what needed
+    /// it, e.g. use(spoon) after both adds).
+    fn human_returned(&mut self, object: &str) {
+        let posts: Vec<GroundCond> = self
+            .wm
+            .iter()
+            .filter(|n| n.human && !n.accomplished && n.object.as_deref() == Some(object))
+            .map(|n| n.post.clone())
+            .collect();
+        for p in posts {
+            self.state.assert_cond(&p);
         }
     }
 

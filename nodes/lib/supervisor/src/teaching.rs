@@ -181,14 +181,19 @@ pub fn attach(
 }
 
 /// The subtask that keeps a retreat: `Some(prev)` when the winner `won` has no action yet (or
-/// there is none: the retreat after the task's last release), the action is not a FOA, and it
-/// acts on the object of `prev`, the subtask that acquired the previous action (module docs).
+/// there is none: the retreat after the task's last release, whatever object it is relative
+/// to), the action is not a FOA, and it acts on the object of `prev`, the subtask that acquired
+/// the previous action (module docs).
 fn retreat_owner(wm: &Wm, ltm: &Ltm, session: &TeachSession, won: Option<NodeId>, term: &Term, kind: ActionKind) -> Option<PrevSubtask> {
     let fresh = won.is_none_or(|w| wm.get(w).is_some_and(|s| s.children.is_empty()));
     if kind == ActionKind::Foa || !fresh {
         return None;
     }
     let prev = session.last_subtask.clone().filter(|p| Some(p.node) != won)?;
+    if won.is_none() {
+        // Nothing else could own it (the task's last release): the previous subtask keeps it.
+        return Some(prev);
+    }
     let own = term.constant_args().filter(|c| ltm.is_object(c)).last()?;
     (prev.object.as_deref() == Some(own)).then_some(prev)
 }
