@@ -14,7 +14,8 @@
 //! while it acts) for the controller's task transition control (thesis Sec. 4.1.2), as the
 //! LWR's joint torque sensors report a person's push while it runs a motion.
 //! `/human/skeleton` (cowork_msgs/Skeleton, base frame): each person is drawn in the depth image
-//! as a capsule body on the floor (see [`depth::People`]).
+//! as a capsule body on the floor (see [`depth::People`]). `/lwr/place_object`
+//! (cowork_msgs/WorldObject): a person moves a scene object (see [`person`]).
 //! Outputs: `/clock`, `/joint_states`, `/tf` (link tree parent → child, objects), `/tf_static` (camera),
 //! `/lwr/world` (cowork_msgs/WorldState: gripper, held object, tool pose, every object's pose,
 //! tool distance and tilt, at `publish.world_rate_hz`; what the robot manager and the
@@ -24,6 +25,7 @@
 //! QoS), rendered by a worker thread from the newest state (see [`depth`]).
 
 pub mod depth;
+pub mod person;
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -577,6 +579,7 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
     let wrenches = node.subscription::<WrenchStamped>("/external_wrench", &qos::reliable_depth(1000))?;
     // Best effort matches every writer (reliable bags, best-effort trackers).
     let skeletons = node.subscription::<Skeleton>("/human/skeleton", &qos::best_effort_depth(20))?;
+    let placements = node.subscription::<WorldObject>(person::TOPIC_PLACE_OBJECT, &qos::reliable_depth(100))?;
     let clock = node.publisher::<Clock>("/clock", &qos::clock())?;
     let joint_states = node.publisher::<JointState>("/joint_states", &qos::reliable())?;
     let tf = node.publisher::<TFMessage>("/tf", &qos::reliable_depth(100))?;
@@ -630,6 +633,9 @@ pub fn run(mut node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<
         }
         while let Some(m) = skeletons.take() {
             lwr.on_skeleton(&m);
+        }
+        while let Some(m) = placements.take() {
+            lwr.on_place_object(&m);
         }
         if lwr.waiting_for_wrench() {
             // The replayed teacher is behind: wait for it, and keep the pace from here on.

@@ -52,6 +52,27 @@ pub struct ManagerConfig {
     /// Streaming: the reference advances only while the tool is within this distance of it, m
     /// (a slowed or stopped robot is waited for, not left behind).
     pub stream_tracking_m: f64,
+    /// The region the robot tracks objects in, base frame `[x, y, z]` corners, m: an object
+    /// whose centre leaves it (a person carried it away) is reported not visible, so the
+    /// supervisor replans (Fig. 5.21). `None`: every object is always visible.
+    pub workspace: Option<Workspace>,
+}
+
+/// An axis-aligned box, base frame, m.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Workspace {
+    /// Smallest corner.
+    pub min: [f64; 3],
+    /// Largest corner.
+    pub max: [f64; 3],
+}
+
+impl Workspace {
+    /// Whether `p` (base frame) lies inside (boundary included).
+    pub fn contains(&self, p: &[f64; 3]) -> bool {
+        (0..3).all(|i| self.min[i] <= p[i] && p[i] <= self.max[i])
+    }
 }
 
 /// See [`ManagerConfig::noa_execution`].
@@ -86,6 +107,7 @@ impl Default for ManagerConfig {
             stream_period_s: 0.05,
             stream_gain: 8.0,
             stream_tracking_m: 0.03,
+            workspace: None,
         }
     }
 }
@@ -118,6 +140,11 @@ impl ManagerConfig {
         }
         if self.nominal_speed_m_s > 2.0 {
             return bad("nominal_speed_m_s", self.nominal_speed_m_s.to_string(), "above 2 m/s");
+        }
+        if let Some(w) = &self.workspace
+            && !(0..3).all(|i| w.min[i].is_finite() && w.max[i].is_finite() && w.min[i] < w.max[i])
+        {
+            return bad("workspace", format!("{w:?}"), "corners must be finite with min < max on every axis");
         }
         if let Err(e) = self.dmp.validate() {
             return bad("dmp", format!("{:?}", self.dmp), &e.to_string());
@@ -178,5 +205,29 @@ mod tests {
         assert!(c.validate().expect_err("dup").to_string().contains("same task name"));
         let c = ManagerConfig { robot: "../etc".into(), ..ManagerConfig::default() };
         assert!(c.validate().expect_err("path").to_string().contains("robot"));
+        for w in [Workspace { min: [0.0, 0.0, f64::NAN], max: [1.0; 3] }, Workspace { min: [0.0, 2.0, 0.0], max: [1.0; 3] }] {
+            let c = ManagerConfig { workspace: Some(w), ..ManagerConfig::default() };
+            assert!(c.validate().expect_err("workspace").to_string().contains("workspace"));
+        }
+    }
+
+    #[test]
+    fn an_object_carried_out_of_the_workspace_is_not_visible() {
+        use crate::world::{ObjectReport, World, WorldReport};
+        use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+        let at = |x: f64| Isometry3::from_parts(Translation3::new(x, 0.2, 0.11), UnitQuaternion::identity());
+        let report = |x: f64| WorldReport {
+            t: 1.0,
+            tool: at(0.3),
+            gripper_closed: false,
+            held: None,
+            objects: vec![ObjectReport { name: "bottle".into(), pose: at(x), distance: 0.3, tilt: 0.0, visible: true }],
+        };
+        let cfg = ManagerConfig { workspace: Some(Workspace { min: [-0.3, -1.0, -0.1], max: [1.0, 1.0, 0.8] }), ..ManagerConfig::default() };
+        cfg.validate().expect("valid");
+        let visible = |cfg: &ManagerConfig, x: f64| World::from_report(&report(x), cfg).expect("good").objects[0].visible;
+        assert!(visible(&cfg, 0.45));
+        assert!(!visible(&cfg, 1.15), "taken away by the person");
+        assert!(visible(&ManagerConfig::default(), 1.15), "no workspace: always visible");
     }
 }

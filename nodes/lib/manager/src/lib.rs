@@ -33,7 +33,7 @@ pub mod primitive;
 pub mod segment;
 pub mod world;
 
-pub use config::{ManagerConfig, NoaExecution, WORLD};
+pub use config::{ManagerConfig, NoaExecution, WORLD, Workspace};
 pub use database::Database;
 pub use error::{ManagerError, Result};
 pub use label::Label;

@@ -92,7 +92,7 @@ impl World {
                 pose: o.pose,
                 distance: o.distance,
                 tilt: o.tilt,
-                visible: o.visible,
+                visible: o.visible && cfg.workspace.is_none_or(|w| w.contains(&o.pose.translation.vector.into())),
                 held: held_scene == Some(o.name.as_str()),
             });
         }

@@ -28,6 +28,15 @@ pub enum CommandError {
     /// A wrench applied to a link the robot does not have.
     #[error("wrench applied to unknown link `{link}`")]
     UnknownLink { link: String },
+    /// A person placing an object the scene does not have.
+    #[error("no object `{name}` in the scene")]
+    UnknownObject { name: String },
+    /// A person placing the object the gripper holds.
+    #[error("object `{name}` is held by the gripper")]
+    HeldByGripper { name: String },
+    /// An object pose that is not finite or whose quaternion has no length.
+    #[error("pose of object `{name}` is not finite or not a rotation")]
+    BadPose { name: String },
 }
 
 /// Result alias of this crate.

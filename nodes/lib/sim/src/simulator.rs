@@ -239,6 +239,25 @@ impl Simulator {
         Some(self.objects[i].name.as_str())
     }
 
+    /// A person moves object `name` to `pose` (base frame): picked up, carried, poured, put
+    /// down. The simulator does not model the person's grasp; the object is where the person's
+    /// hand puts it, with no settling (put it down at its table height). Refused for an unknown
+    /// object, the object the gripper holds, or a non-finite pose.
+    pub fn place_object(&mut self, name: &str, pose: Isometry3<f64>) -> Result<(), CommandError> {
+        let Some(i) = self.objects.iter().position(|o| o.name == name) else {
+            return Err(CommandError::UnknownObject { name: name.to_owned() });
+        };
+        if self.gripper == (GripperState::Closed { holding: Some(i) }) {
+            return Err(CommandError::HeldByGripper { name: name.to_owned() });
+        }
+        let finite = pose.translation.vector.iter().chain(pose.rotation.coords.iter()).all(|v| v.is_finite());
+        if !finite || (pose.rotation.coords.norm() - 1.0).abs() > 1e-6 {
+            return Err(CommandError::BadPose { name: name.to_owned() });
+        }
+        self.objects[i].pose = pose;
+        Ok(())
+    }
+
     fn release(&mut self, i: usize) {
         if !self.params.drop_released_objects {
             return;

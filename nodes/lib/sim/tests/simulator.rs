@@ -263,3 +263,29 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn a_person_places_objects_but_not_the_held_one() {
+    use nalgebra::{Isometry3, Translation3, UnitQuaternion};
+    let mut sc = scene();
+    let tool = sim().tool_pose().translation.vector;
+    let cup = sc.objects.iter_mut().find(|o| o.name == "cup").unwrap();
+    cup.pose.position = [tool.x, tool.y, tool.z - 0.02 - 0.05];
+    let mut s = Simulator::new(model(), sc, SimParams::default()).unwrap();
+    let pose_of = |s: &Simulator, n: &str| s.objects().iter().find(|o| o.name == n).unwrap().pose;
+    // The bottle lifted off the table, carried to the person's side and tilted: exactly there.
+    let over = Isometry3::from_parts(Translation3::new(0.9, 0.4, 0.3), UnitQuaternion::from_euler_angles(0.0, 2.0, 0.0));
+    s.place_object("bottle", over).expect("placed");
+    s.step();
+    assert_eq!(pose_of(&s, "bottle"), over);
+    assert!(matches!(s.place_object("kettle", over), Err(CommandError::UnknownObject { .. })));
+    let mut nan = over;
+    nan.translation.vector.x = f64::NAN;
+    assert!(matches!(s.place_object("bottle", nan), Err(CommandError::BadPose { .. })));
+    assert_eq!(pose_of(&s, "bottle"), over, "a refused placement changes nothing");
+    // The gripper's object is the robot's.
+    assert_eq!(s.command_gripper(true), Some("cup"));
+    let held = pose_of(&s, "cup");
+    assert!(matches!(s.place_object("cup", over), Err(CommandError::HeldByGripper { .. })));
+    assert_eq!(pose_of(&s, "cup"), held);
+}
