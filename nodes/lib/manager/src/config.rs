@@ -107,7 +107,8 @@ impl Default for ManagerConfig {
             stream_period_s: 0.05,
             stream_gain: 8.0,
             stream_tracking_m: 0.03,
-            workspace: None,
+            // The kitchen table's robot side up to 0.8 m above it (config/robot_manager.yaml).
+            workspace: Some(Workspace { min: [-0.3, -1.0, -0.1], max: [1.0, 1.0, 0.8] }),
         }
     }
 }
@@ -228,6 +229,6 @@ mod tests {
         let visible = |cfg: &ManagerConfig, x: f64| World::from_report(&report(x), cfg).expect("good").objects[0].visible;
         assert!(visible(&cfg, 0.45));
         assert!(!visible(&cfg, 1.15), "taken away by the person");
-        assert!(visible(&ManagerConfig::default(), 1.15), "no workspace: always visible");
+        assert!(visible(&ManagerConfig { workspace: None, ..ManagerConfig::default() }, 1.15), "no workspace: always visible");
     }
 }

@@ -5,6 +5,8 @@
 //!
 //! Each node runs in its own process (this test binary re-run as a child, `child` below), as
 //! the environment is per process in ROS 2.
+// The refusals and the secured start need a binary built with DDS security.
+#![cfg(feature = "security")]
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};

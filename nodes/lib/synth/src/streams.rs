@@ -100,8 +100,12 @@ impl Streams {
         let model = sim.model();
         let names = model.joint_names().to_vec();
         let n = names.len();
+        // Synthesised bags are written whole (no recorder to kill): size-bounded chunks only,
+        // so the bundled bags keep their bytes.
+        let mut bag = BagWriter::create(path)?;
+        bag.set_chunk_span(None)?;
         Ok(Self {
-            bag: BagWriter::create(path)?,
+            bag,
             channels: BTreeMap::new(),
             counts: BTreeMap::new(),
             base_frame: model.link_names()[0].clone(),
