@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use attentional_supervisor::{Params, RunOptions};
+use attentional_supervisor::{Params, RunOptions, SupervisorNode};
 use clap::Parser;
 use cowork_supervisor::{Ltm, Supervisor};
 
@@ -53,7 +53,7 @@ fn main() -> Result<()> {
     let supervisor = Supervisor::new(ltm, &args.task, params.attention.clone())
         .with_context(|| format!("cannot allocate task {} from {}", args.task, args.ltm.display()))?;
     let node = cowork_ros::start_node("attentional_supervisor", params.use_sim_time, args.duration)?;
-    let options = RunOptions { params, save_ltm: args.save_ltm, duration_s: args.duration, stop: None };
-    attentional_supervisor::run(node, supervisor, &options)?;
+    let node_state = SupervisorNode::new(supervisor, &params);
+    attentional_supervisor::run(node, node_state, args.save_ltm.as_deref(), &RunOptions::for_duration(args.duration))?;
     Ok(())
 }

@@ -11,14 +11,15 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use attentional_supervisor::{Params, RunOptions};
+use attentional_supervisor::{Params, RunOptions, SupervisorNode};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{
     ActionCommand, ActionEvent, ActionSegment, ObjectState, ObjectStream, RobotStream, WmNode, WorkingMemory,
 };
 use cowork_msgs::rosgraph_msgs::Clock;
 use cowork_msgs::std_msgs::String as RosString;
-use cowork_ros::{NodeConfig, Publisher, RosNode, Subscription, qos};
+use cowork_msgs::topics;
+use cowork_ros::{NodeConfig, Publisher, RosNode, Subscription};
 use cowork_supervisor::{Ltm, RunConfig, Supervisor, SupervisorConfig, parse_jsonl, runner};
 
 const TICK_S: f64 = 0.01;
@@ -56,13 +57,10 @@ fn start(domain: u16, ltm: Ltm, task: &str, use_sim_time: bool, save_ltm: Option
     )
     .expect("node");
     let stop = Arc::new(AtomicBool::new(false));
-    let options = RunOptions {
-        params,
-        save_ltm: save_ltm.map(Path::to_owned),
-        duration_s: Some(60.0),
-        stop: Some(Arc::clone(&stop)),
-    };
-    let handle = std::thread::spawn(move || attentional_supervisor::run(node, sup, &options));
+    let options = RunOptions { duration_s: Some(60.0), stop: Some(Arc::clone(&stop)) };
+    let save_ltm = save_ltm.map(Path::to_owned);
+    let sn = SupervisorNode::new(sup, &params);
+    let handle = std::thread::spawn(move || attentional_supervisor::run(node, sn, save_ltm.as_deref(), &options));
     Running { stop, handle }
 }
 
@@ -103,12 +101,12 @@ impl Client {
         let mut node =
             RosNode::new("test_robot_manager", &NodeConfig { domain_id: Some(domain), ..Default::default() })
                 .expect("client node");
-        let objects_pub = node.publisher::<ObjectStream>("/object_stream", &qos::reliable()).expect("pub");
-        let robot_pub = node.publisher::<RobotStream>("/robot_stream", &qos::reliable()).expect("pub");
-        let speech_pub = node.publisher::<RosString>("/speech_command", &qos::reliable()).expect("pub");
-        let clock_pub = sim_clock_s.map(|t0| (node.publisher::<Clock>("/clock", &qos::clock()).expect("pub"), t0));
-        let actions = node.subscription::<ActionCommand>("/supervisor/action", &qos::reliable()).expect("sub");
-        let wm = node.subscription::<WorkingMemory>("/supervisor/working_memory", &qos::reliable()).expect("sub");
+        let objects_pub = node.advertise(&topics::OBJECT_STREAM).expect("pub");
+        let robot_pub = node.advertise(&topics::ROBOT_STREAM).expect("pub");
+        let speech_pub = node.advertise(&topics::SPEECH_COMMAND).expect("pub");
+        let clock_pub = sim_clock_s.map(|t0| (node.advertise(&topics::CLOCK).expect("pub"), t0));
+        let actions = node.subscribe(&topics::SUPERVISOR_ACTION).expect("sub");
+        let wm = node.subscribe(&topics::WORKING_MEMORY).expect("sub");
         let mut c = Self {
             node,
             objects_pub,

@@ -1,0 +1,473 @@
+//! [`SupervisorNode`]: the supervisor with its message conversions and one handler per input;
+//! pure: messages and the clock in, [`Output`]s out, no I/O and no logging (the run loop logs
+//! the [`Output::Decision`]s and [`Output::Warning`]s).
+
+use std::collections::BTreeMap;
+
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::msg::{ActionCommand, ActionEvent, ObjectStream, RobotStream, WmNode, WorkingMemory};
+use cowork_msgs::std_msgs::{Header, String as RosString};
+use cowork_msgs::topics;
+use cowork_ros::Warning;
+use cowork_supervisor::{ActionKind, Decision, Event, GripperState, ObjectObs, Supervisor, WmSnapshot};
+use serde::Serialize;
+
+use crate::params::Params;
+
+/// Identical warnings are logged at most once per this many seconds.
+pub const WARNING_REPEAT_S: f64 = 10.0;
+
+/// Longest speech command passed on whole (characters); no word of the vocabulary comes close.
+pub const MAX_SPEECH_CHARS: usize = 200;
+
+/// Characters of a library warning that are logged (it may quote a speech command).
+pub const MAX_WARNING_CHARS: usize = 300;
+
+/// What the node takes in.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Input {
+    /// `/object_stream`: object distances and visibility.
+    ObjectStream(ObjectStream),
+    /// `/robot_stream`: action events, teaching segments, gripper state.
+    RobotStream(RobotStream),
+    /// `/speech_command`.
+    Speech(RosString),
+}
+
+/// What the node puts out, in the order it happened.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Output {
+    /// `/supervisor/action`: a new action or an abort.
+    Action(ActionCommand),
+    /// `/supervisor/working_memory`.
+    WorkingMemory(WorkingMemory),
+    /// A decision of the supervisor, for the log (actions and stops come as
+    /// [`Output::Action`] too).
+    Decision(Decision),
+    /// The LTM changed (teaching attached actions): its new text, to save.
+    Learned {
+        /// The whole LTM in schema notation (what `Ltm::save` writes).
+        ltm: String,
+    },
+    /// A warning for the log (rate-limited by the caller).
+    Warning(Warning),
+}
+
+/// `ObjectStream` → `objects` event. An object that is not visible and has no finite distance
+/// keeps its last distance (an unseen object's distance is unknown, not bad input); a visible
+/// one with a non-finite distance is passed on, and the library rejects it with a warning.
+pub fn objects_event(msg: &ObjectStream) -> Event {
+    let objects = msg
+        .objects
+        .iter()
+        .map(|o| ObjectObs {
+            name: o.name.clone(),
+            distance: (o.visible || o.robot_distance.is_finite()).then_some(o.robot_distance),
+            arm_distances: BTreeMap::new(),
+            visible: o.visible,
+            area: None,
+        })
+        .collect();
+    Event::Objects { objects }
+}
+
+/// `/speech_command` → `speech` event (the library judges the vocabulary). A text longer than
+/// [`MAX_SPEECH_CHARS`] is passed on as its prefix (it is not a command either way), so a
+/// megabyte string is not copied into every warning about it.
+pub fn speech_event(msg: &RosString) -> Event {
+    Event::Speech { text: cowork_ros::text_prefix(&msg.data, MAX_SPEECH_CHARS).into_owned() }
+}
+
+/// `ActionEvent::KIND_*` / `ActionSegment::KIND_*` → action kind.
+pub fn action_kind(kind: u8) -> Option<ActionKind> {
+    match kind {
+        ActionEvent::KIND_NOA => Some(ActionKind::Noa),
+        ActionEvent::KIND_FOA => Some(ActionKind::Foa),
+        ActionEvent::KIND_GRIPPER => Some(ActionKind::Gripper),
+        _ => None,
+    }
+}
+
+/// Action kind → `ActionEvent::KIND_*`.
+pub fn kind_code(kind: ActionKind) -> u8 {
+    match kind {
+        ActionKind::Noa => ActionEvent::KIND_NOA,
+        ActionKind::Foa => ActionEvent::KIND_FOA,
+        ActionKind::Gripper => ActionEvent::KIND_GRIPPER,
+    }
+}
+
+/// Turns the `RobotStream` state stream into edge events: the gripper is reported only when
+/// its state or held object changes (grasp and release rewrite `<object>.taken`, so a
+/// repeated report must not be replayed).
+#[derive(Debug, Default, Clone)]
+pub struct RobotStreamDecoder {
+    gripper: Option<(u8, String)>,
+}
+
+impl RobotStreamDecoder {
+    /// Appends the events of `msg` to `events` and what was wrong with it to `problems`.
+    pub fn decode(&mut self, msg: &RobotStream, events: &mut Vec<Event>, problems: &mut Vec<String>) {
+        let mut warnings = Vec::new();
+        self.decode_warnings(msg, events, &mut warnings);
+        problems.extend(warnings.into_iter().map(|w| w.message));
+    }
+
+    /// [`decode`](Self::decode) with the problems as [`Warning`]s (kind
+    /// `/robot_stream:<field>`).
+    pub fn decode_warnings(&mut self, msg: &RobotStream, events: &mut Vec<Event>, problems: &mut Vec<Warning>) {
+        let topic = topics::ROBOT_STREAM.name;
+        for e in &msg.events {
+            if e.failed {
+                events.push(Event::ActionFailed { arm: None, label: e.label.clone(), reason: e.reason.clone() });
+            } else if e.done {
+                events.push(Event::ActionDone { arm: None, label: e.label.clone() });
+            }
+        }
+        for s in &msg.segments {
+            let Some(kind) = action_kind(s.kind) else {
+                problems.push(Warning::new(
+                    format!("{topic}:segments.kind"),
+                    format!(
+                        "{topic}: segment '{}' has unknown kind {} (expected 0 NOA, 1 FOA, 2 gripper); dropped",
+                        cowork_ros::quote(&s.label),
+                        s.kind
+                    ),
+                ));
+                continue;
+            };
+            let object = (!s.object_name.is_empty()).then(|| s.object_name.clone());
+            events.push(Event::Segment { arm: None, label: s.label.clone(), kind, object });
+        }
+        let state = match msg.gripper_state {
+            RobotStream::GRIPPER_OPEN => GripperState::Open,
+            RobotStream::GRIPPER_CLOSED => GripperState::Close,
+            other => {
+                problems.push(Warning::new(
+                    format!("{topic}:gripper_state"),
+                    format!("{topic}: unknown gripper_state {other} (expected 0 open, 1 closed); gripper ignored"),
+                ));
+                return;
+            }
+        };
+        let held = if state == GripperState::Open { String::new() } else { msg.held_object.trim().to_owned() };
+        let now = (msg.gripper_state, held);
+        if self.gripper.as_ref() == Some(&now) {
+            return;
+        }
+        let object = (!now.1.is_empty()).then(|| now.1.clone());
+        self.gripper = Some(now);
+        events.push(Event::Gripper { arm: None, state, object });
+    }
+}
+
+/// Remembers the id of the command running on each arm, so an abort names what it aborts.
+#[derive(Debug, Default, Clone)]
+pub struct CommandTracker {
+    running: BTreeMap<String, (u32, String)>,
+}
+
+impl CommandTracker {
+    /// The `/supervisor/action` message for a decision, if it is one (`Action` or `Stop`).
+    pub fn command(&mut self, decision: &Decision, stamp: Time) -> Option<ActionCommand> {
+        let header = Header { stamp, frame_id: String::new() };
+        match decision {
+            Decision::Action { id, arm, label, .. } => {
+                let arm = arm.clone().unwrap_or_default();
+                self.running.insert(arm.clone(), (*id, label.clone()));
+                Some(ActionCommand { header, id: *id, label: label.clone(), arm, stop: false })
+            }
+            Decision::Stop { arm, label, .. } => Some(self.stop(arm.as_deref().unwrap_or(""), label, header)),
+            _ => None,
+        }
+    }
+
+    fn stop(&mut self, arm: &str, label: &str, header: Header) -> ActionCommand {
+        let id = match self.running.remove(arm) {
+            Some((id, l)) if l == label => id,
+            _ => 0,
+        };
+        ActionCommand { header, id, label: label.to_owned(), arm: arm.to_owned(), stop: true }
+    }
+}
+
+/// A library snapshot as a `WorkingMemory` message.
+pub fn working_memory(s: &WmSnapshot, stamp: Time) -> WorkingMemory {
+    let nodes = s
+        .nodes
+        .iter()
+        .map(|n| WmNode {
+            id: n.id,
+            parent: n.parent,
+            name: n.name.clone(),
+            releaser: n.releaser.clone(),
+            releaser_value: n.releaser_value,
+            postcondition: n.postcondition.clone(),
+            concrete: n.concrete,
+            emphasis: n.emphasis,
+            magnitude: n.magnitude,
+            period: n.period,
+            done: n.done,
+            enabled: n.enabled,
+            assigned_to: match n.assigned_to {
+                "robot" => WmNode::ASSIGNED_ROBOT,
+                "human" => WmNode::ASSIGNED_HUMAN,
+                _ => WmNode::ASSIGNED_NONE,
+            },
+            arm: n.arm.clone(),
+        })
+        .collect();
+    WorkingMemory { header: Header { stamp, frame_id: String::new() }, nodes, true_variables: s.true_variables.clone() }
+}
+
+/// Fixed-rate pacing on any clock (s): due once per period, on a steady grid; a clock that
+/// jumps ahead by more than a period (sim time faster than the loop) or back (a looped bag)
+/// restarts the grid at the current time instead of bursting.
+#[derive(Debug, Clone)]
+pub struct Pacer {
+    period_s: f64,
+    next_s: Option<f64>,
+}
+
+impl Pacer {
+    /// A pacer with this period (s).
+    pub fn new(period_s: f64) -> Self {
+        Self { period_s, next_s: None }
+    }
+
+    /// Whether a period started at `now_s`; advances the grid when it did.
+    pub fn due(&mut self, now_s: f64) -> bool {
+        match self.next_s {
+            Some(next) if now_s < next && now_s >= next - 2.0 * self.period_s => false,
+            Some(next) if now_s >= next && now_s < next + self.period_s => {
+                self.next_s = Some(next + self.period_s);
+                true
+            }
+            _ => {
+                self.next_s = Some(now_s + self.period_s);
+                true
+            }
+        }
+    }
+
+    /// Time (s, same clock) until the next period starts; zero when due.
+    pub fn wait_s(&self, now_s: f64) -> f64 {
+        self.next_s.map_or(0.0, |n| (n - now_s).clamp(0.0, self.period_s))
+    }
+}
+
+/// Rate-limit key of a library warning: its variant, never its (peer-supplied) text, so a
+/// flood of distinct bad words is one kind.
+pub fn warning_kind(w: &cowork_supervisor::Warning) -> &'static str {
+    use cowork_supervisor::Warning as W;
+    match w {
+        W::UnknownSpeech { .. } => "supervisor:unknown_speech",
+        W::UnknownObject { .. } => "supervisor:unknown_object",
+        W::UnknownArm { .. } => "supervisor:unknown_arm",
+        W::UnknownSubtask { .. } => "supervisor:unknown_subtask",
+        W::UnexpectedActionEvent { .. } => "supervisor:unexpected_action_event",
+        W::ActionFailed { .. } => "supervisor:action_failed",
+        W::NoOpenSubtask { .. } => "supervisor:no_open_subtask",
+        W::SegmentOutsideTeaching { .. } => "supervisor:segment_outside_teaching",
+        W::BadLabel { .. } => "supervisor:bad_label",
+        W::NonFinite { .. } => "supervisor:non_finite",
+        W::IgnoredSpeech { .. } => "supervisor:ignored_speech",
+    }
+}
+
+/// The supervisor with its message conversions; no I/O.
+#[derive(Debug)]
+pub struct SupervisorNode {
+    sup: Supervisor,
+    params: Params,
+    decoder: RobotStreamDecoder,
+    tracker: CommandTracker,
+    objects_seen: bool,
+    events: Vec<Event>,
+    pending_problems: Vec<Warning>,
+    problems: Vec<Warning>,
+    decisions: Vec<Decision>,
+    scratch: Vec<Output>,
+    warnings: u64,
+    last_tick_s: f64,
+}
+
+impl SupervisorNode {
+    /// Wraps a supervisor; `params.wait_for_object_stream` gates the first decision, and
+    /// the run loop ticks at `params.tick_rate_hz`.
+    pub fn new(sup: Supervisor, params: &Params) -> Self {
+        Self {
+            sup,
+            params: params.clone(),
+            decoder: RobotStreamDecoder::default(),
+            tracker: CommandTracker::default(),
+            objects_seen: false,
+            events: Vec::new(),
+            pending_problems: Vec::new(),
+            problems: Vec::new(),
+            decisions: Vec::new(),
+            scratch: Vec::new(),
+            warnings: 0,
+            last_tick_s: 0.0,
+        }
+    }
+
+    /// The node's parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// The wrapped supervisor.
+    pub fn supervisor(&self) -> &Supervisor {
+        &self.sup
+    }
+
+    /// Gives the supervisor back (with what it learned).
+    pub fn into_supervisor(self) -> Supervisor {
+        self.sup
+    }
+
+    /// Whether the supervisor decides (the first `/object_stream` arrived, or no wait).
+    pub fn ready(&self) -> bool {
+        self.objects_seen || !self.params.wait_for_object_stream
+    }
+
+    /// Warnings so far (library warnings and malformed messages).
+    pub fn warnings(&self) -> u64 {
+        self.warnings
+    }
+
+    /// Decisions of the last tick.
+    pub fn decisions(&self) -> &[Decision] {
+        &self.decisions
+    }
+
+    /// Message problems reported by the last tick (malformed fields the library never saw).
+    pub fn problems(&self) -> &[Warning] {
+        &self.problems
+    }
+
+    /// Any input.
+    pub fn on_input(&mut self, input: &Input) {
+        match input {
+            Input::ObjectStream(m) => self.on_object_stream(m),
+            Input::RobotStream(m) => self.on_robot_stream(m),
+            Input::Speech(m) => self.on_speech(m),
+        }
+    }
+
+    /// `/object_stream`.
+    pub fn on_object_stream(&mut self, msg: &ObjectStream) {
+        self.objects_seen = true;
+        self.sup.handle(&objects_event(msg), self.now_hint());
+    }
+
+    /// `/robot_stream`.
+    pub fn on_robot_stream(&mut self, msg: &RobotStream) {
+        self.events.clear();
+        self.decoder.decode_warnings(msg, &mut self.events, &mut self.pending_problems);
+        let t = self.now_hint();
+        for e in &self.events {
+            self.sup.handle(e, t);
+        }
+    }
+
+    /// `/speech_command`.
+    pub fn on_speech(&mut self, msg: &RosString) {
+        self.sup.handle(&speech_event(msg), self.now_hint());
+    }
+
+    // Events take effect at the next tick; they carry the time of the last one.
+    fn now_hint(&self) -> f64 {
+        self.last_tick_s
+    }
+
+    /// One decision cycle at `now`: reports the problems of the messages since the last tick,
+    /// runs the supervisor (once ready) and appends, per decision, the `/supervisor/action`
+    /// message it implies, the decision itself (or its warning) to `out`.
+    pub fn on_tick(&mut self, now: Time, out: &mut Vec<Output>) {
+        self.problems.clear();
+        std::mem::swap(&mut self.problems, &mut self.pending_problems);
+        self.warnings += self.problems.len() as u64;
+        out.extend(self.problems.iter().cloned().map(Output::Warning));
+        self.decisions.clear();
+        self.last_tick_s = now.to_secs_f64();
+        if !self.ready() {
+            return;
+        }
+        self.sup.tick(now.to_secs_f64(), &mut self.decisions);
+        for d in &self.decisions {
+            if let Some(c) = self.tracker.command(d, now) {
+                out.push(Output::Action(c));
+            }
+            match d {
+                Decision::Warning { message, warning } => {
+                    self.warnings += 1;
+                    out.push(Output::Warning(Warning::new(
+                        warning_kind(warning),
+                        cowork_ros::text_prefix(message, MAX_WARNING_CHARS).into_owned(),
+                    )));
+                }
+                other => out.push(Output::Decision(other.clone())),
+            }
+        }
+    }
+
+    /// [`on_tick`](Self::on_tick) keeping only the `/supervisor/action` messages (appended to
+    /// `out`); the decisions stay readable through [`decisions`](Self::decisions).
+    pub fn tick(&mut self, now: Time, out: &mut Vec<ActionCommand>) {
+        let mut all = std::mem::take(&mut self.scratch);
+        all.clear();
+        self.on_tick(now, &mut all);
+        out.extend(all.drain(..).filter_map(|o| match o {
+            Output::Action(c) => Some(c),
+            _ => None,
+        }));
+        self.scratch = all;
+    }
+
+    /// The LTM's text when it changed since the last call (or the last save): what a run
+    /// saves. Clears the change flag.
+    pub fn take_learned(&mut self) -> Option<String> {
+        if !self.sup.ltm_changed() {
+            return None;
+        }
+        self.sup.mark_ltm_saved();
+        Some(self.sup.ltm().to_text())
+    }
+
+    /// The working memory as a message.
+    pub fn working_memory(&self, stamp: Time) -> WorkingMemory {
+        working_memory(&self.sup.snapshot(), stamp)
+    }
+
+    /// Aborts for every action still running (sent when the node stops, so no arm goes on
+    /// executing a command nobody supervises).
+    pub fn shutdown_commands(&mut self, stamp: Time) -> Vec<ActionCommand> {
+        let arms: Vec<String> = self.sup.state().arm_names().to_vec();
+        let mut out = Vec::new();
+        for (i, arm) in arms.iter().enumerate() {
+            if let Some(label) = self.sup.running(i).map(str::to_owned) {
+                out.push(self.tracker.stop(arm, &label, Header { stamp, frame_id: String::new() }));
+            }
+        }
+        out
+    }
+
+    pub(crate) fn supervisor_mut(&mut self) -> &mut Supervisor {
+        &mut self.sup
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_megabyte_speech_command_becomes_a_short_event() {
+        let msg = RosString { data: "teach ".repeat(200_000) };
+        let Event::Speech { text } = speech_event(&msg) else { panic!("a speech event") };
+        assert!(text.len() < 4 * MAX_SPEECH_CHARS, "{}", text.len());
+    }
+}
