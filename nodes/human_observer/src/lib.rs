@@ -23,19 +23,8 @@ mod node;
 mod params;
 mod run;
 
-pub use node::{NS_BODY, NS_GESTURE, NS_HAND, NS_HAND_VELOCITY, ObserverNode, SkeletonOutput, Warning, Warnings};
+pub use cowork_ros::{RunOptions, Warnings};
+pub use node::{NS_BODY, NS_GESTURE, NS_HAND, NS_HAND_VELOCITY, ObserverNode, SkeletonOutput, Warning};
 pub use params::Params;
-pub use run::{RunOptions, RunSummary, run};
+pub use run::{Input, Output, RunSummary, run, run_loop};
 
-/// Skeletons in.
-pub const TOPIC_SKELETON: &str = "/human/skeleton";
-/// Joint positions in.
-pub const TOPIC_JOINT_STATES: &str = "/joint_states";
-/// Speech commands in.
-pub const TOPIC_SPEECH: &str = "/speech_command";
-/// State of the person out.
-pub const TOPIC_STATE: &str = "/human/state";
-/// Recognised gestures out.
-pub const TOPIC_GESTURE: &str = "/human/gesture";
-/// Markers out.
-pub const TOPIC_MARKERS: &str = "/human/markers";

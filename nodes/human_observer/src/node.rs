@@ -13,33 +13,9 @@ use cowork_robot::RobotModel;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 
 use crate::params::Params;
-use crate::{TOPIC_JOINT_STATES, TOPIC_SKELETON, TOPIC_SPEECH};
+use cowork_msgs::topics::{JOINT_STATES, SKELETON, SPEECH_COMMAND};
 
-/// A warning about an input, with the key its rate limit is kept under.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Warning {
-    /// Rate-limit key (topic + kind).
-    pub kind: String,
-    /// The text logged (names the topic and the field).
-    pub message: String,
-}
-
-/// Logs each kind of warning at most once per period, counting the ones held back
-/// ([`cowork_ros::RateLimiter`], shared with the other nodes).
-#[derive(Debug)]
-pub struct Warnings(cowork_ros::RateLimiter);
-
-impl Warnings {
-    /// At most one warning of a kind per `period_s` (wall clock).
-    pub fn new(period_s: f64) -> Self {
-        Self(cowork_ros::RateLimiter::new(period_s))
-    }
-
-    /// Logs `w` unless one of its kind was logged within the period; returns whether it was.
-    pub fn warn(&mut self, w: &Warning) -> bool {
-        self.0.warn(&w.kind, &w.message)
-    }
-}
+pub use cowork_ros::Warning;
 
 /// What one skeleton frame gives to publish.
 #[derive(Debug, Clone)]
@@ -148,7 +124,7 @@ impl ObserverNode {
     pub fn on_joint_state(&mut self, msg: &JointState) -> Result<(), Warning> {
         self.observer
             .on_joint_state(msg.header.stamp.to_secs_f64(), &msg.name, &msg.position)
-            .map_err(|e| Warning { kind: TOPIC_JOINT_STATES.to_string(), message: format!("{TOPIC_JOINT_STATES}: message ignored: {e}") })
+            .map_err(|e| Warning { kind: JOINT_STATES.name.to_string(), message: format!("{}: message ignored: {e}", JOINT_STATES.name) })
     }
 
     /// `/speech_command`: `stop` / `repeat` (the words of the parameters) move the stop latch;
@@ -156,7 +132,7 @@ impl ObserverNode {
     pub fn on_speech(&mut self, msg: &RosString) -> bool {
         let changed = self.observer.on_speech(&msg.data);
         if changed {
-            tracing::info!("{TOPIC_SPEECH}: {:?}: {}", msg.data.trim(), if self.observer.tracks().count() == 0 && self.last.as_ref().is_some_and(|s| s.stopped) { "stopped" } else { "stop latch changed" });
+            tracing::info!("{}: {:?}: {}", SPEECH_COMMAND.name, cowork_ros::quote(msg.data.trim()), if self.observer.tracks().count() == 0 && self.last.as_ref().is_some_and(|s| s.stopped) { "stopped" } else { "stop latch changed" });
         }
         changed
     }
@@ -179,7 +155,7 @@ impl ObserverNode {
             .iter()
             .map(|w| {
                 let field = w.split("field `").nth(1).and_then(|r| r.split('`').next()).unwrap_or("frame");
-                Warning { kind: format!("{TOPIC_SKELETON}:{field}"), message: format!("{TOPIC_SKELETON}: {w}") }
+                Warning { kind: format!("{}:{field}", SKELETON.name), message: format!("{}: {w}", SKELETON.name) }
             })
             .collect();
         let gesture = out.gesture.as_ref().map(|g| self.gesture_msg(g));

@@ -1,27 +1,38 @@
-//! [`run`]: the node over DDS, one loop: drain the subscriptions, handle, publish, tick.
-
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+//! [`run`]: the node over DDS. [`run_loop`] is the whole behaviour, generic over where the
+//! inputs come from: the DDS source here, a scripted one in the golden tests.
 
 use anyhow::Result;
-use cowork_msgs::RosMessage;
 use cowork_msgs::msg::{Gesture, HumanState, Skeleton};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::String as RosString;
+use cowork_msgs::topics;
 use cowork_msgs::visualization_msgs::MarkerArray;
-use cowork_ros::{Publisher, RosNode, qos};
+use cowork_ros::{DdsSource, Event, InputSource, RosNode, RunOptions, Warning, Warnings};
 
-use crate::node::{ObserverNode, Warning, Warnings};
-use crate::{TOPIC_GESTURE, TOPIC_JOINT_STATES, TOPIC_MARKERS, TOPIC_SKELETON, TOPIC_SPEECH, TOPIC_STATE};
+use crate::node::ObserverNode;
 
-/// Options of [`run`].
-#[derive(Debug, Default, Clone)]
-pub struct RunOptions {
-    /// Stop after this many wall-clock seconds.
-    pub duration_s: Option<f64>,
-    /// Stop when this flag is raised (besides Ctrl-C / SIGTERM).
-    pub stop: Option<Arc<AtomicBool>>,
+/// What the node takes in.
+#[derive(Debug, Clone)]
+pub enum Input {
+    /// `/joint_states`: the robot's geometry for the distance.
+    JointState(JointState),
+    /// `/speech_command`: `stop` / `repeat`.
+    Speech(RosString),
+    /// `/human/skeleton`.
+    Skeleton(Skeleton),
+}
+
+/// What the node puts out.
+#[derive(Debug, Clone, serde::Serialize)]
+pub enum Output {
+    /// `/human/state`.
+    State(HumanState),
+    /// `/human/gesture`.
+    Gesture(Gesture),
+    /// `/human/markers`.
+    Markers(MarkerArray),
+    /// A warning for the log (rate-limited by the caller).
+    Warning(Warning),
 }
 
 /// What a run did.
@@ -35,86 +46,82 @@ pub struct RunSummary {
     pub gestures: u64,
 }
 
+/// Hands every input of `source` to `observer` and every output to `emit`, ticking the steady
+/// state and marker publication between inputs, until the source ends.
+pub fn run_loop<S: InputSource<Input>>(source: &mut S, observer: &mut ObserverNode, emit: &mut dyn FnMut(Output)) -> RunSummary {
+    let rate = observer.params().state_rate_hz.max(observer.params().markers_rate_hz);
+    let tick_period = (0.5 / rate).clamp(0.001, 0.05);
+    let mut summary = RunSummary::default();
+    let mut next_tick = f64::NEG_INFINITY;
+    loop {
+        let event = source.next(next_tick.max(source.now_s()));
+        // Frames handled now arrived now (the node's clock): silence is judged by arrival.
+        let now = source.now_s();
+        observer.set_clock(now);
+        match event {
+            Event::End => break,
+            Event::Input(Input::JointState(m)) => {
+                if let Err(w) = observer.on_joint_state(&m) {
+                    emit(Output::Warning(w));
+                }
+            }
+            Event::Input(Input::Speech(m)) => {
+                observer.on_speech(&m);
+            }
+            Event::Input(Input::Skeleton(m)) => {
+                let out = observer.on_skeleton(&m);
+                summary.skeletons += 1;
+                out.warnings.into_iter().for_each(|w| emit(Output::Warning(w)));
+                emit(Output::State(out.state));
+                if let Some(g) = out.gesture {
+                    emit(Output::Gesture(g));
+                }
+            }
+            Event::Deadline => {}
+        }
+        if now >= next_tick {
+            next_tick = now + tick_period;
+            if let Some(s) = observer.on_tick(now) {
+                emit(Output::State(s));
+            }
+            if observer.params().publish_markers
+                && let Some(m) = observer.markers(now)
+            {
+                emit(Output::Markers(m.clone()));
+            }
+        }
+    }
+    summary.states = observer.states();
+    summary.gestures = observer.gestures();
+    summary
+}
+
 /// Runs the node until Ctrl-C, `options.stop` or `options.duration_s`.
-pub fn run(mut node: RosNode, mut observer: ObserverNode, options: &RunOptions) -> Result<RunSummary> {
-    let skeletons = node.subscription::<Skeleton>(TOPIC_SKELETON, &qos::reliable())?;
-    // Best effort: a 1 kHz stream where only the newest sample counts. A reliable reader that
-    // stalls (a frozen process) makes lwr_sim's writes fail for every reader and silenced
-    // /joint_states graph-wide for ~20 s (tests/crosscheck/stranger.py chaos).
-    let joints = node.subscription::<JointState>(TOPIC_JOINT_STATES, &qos::best_effort_depth(100))?;
-    let speech = node.subscription::<RosString>(TOPIC_SPEECH, &qos::reliable())?;
-    let states = node.publisher::<HumanState>(TOPIC_STATE, &qos::reliable())?;
-    let gestures = node.publisher::<Gesture>(TOPIC_GESTURE, &qos::reliable())?;
-    let markers = if observer.params().publish_markers { Some(node.publisher::<MarkerArray>(TOPIC_MARKERS, &qos::reliable())?) } else { None };
+pub fn run(node: RosNode, mut observer: ObserverNode, options: &RunOptions) -> Result<RunSummary> {
+    let mut source = DdsSource::new(node, options.start())?;
+    source.add(&topics::JOINT_STATES, Input::JointState)?;
+    source.add(&topics::SPEECH_COMMAND, Input::Speech)?;
+    source.add(&topics::SKELETON, Input::Skeleton)?;
+    let states = source.node().advertise(&topics::HUMAN_STATE)?;
+    let gestures = source.node().advertise(&topics::GESTURE)?;
+    let markers = if observer.params().publish_markers { Some(source.node().advertise(&topics::HUMAN_MARKERS)?) } else { None };
     let mut warnings = Warnings::new(observer.params().warning_period_s);
     tracing::info!(
         "human_observer running: {} gesture templates, /human/state at >= {} Hz",
         observer.observer().classifier().map_or(0, |c| c.model().templates.len()),
         observer.params().state_rate_hz
     );
-    let started = Instant::now();
-    let mut summary = RunSummary::default();
-    let stop_requested = || {
-        cowork_ros::shutdown::requested()
-            || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
-            || options.duration_s.is_some_and(|d| started.elapsed().as_secs_f64() >= d)
-    };
-    while !stop_requested() {
-        let mut any = false;
-        // Frames handled below arrived now (the node's clock): silence is judged by arrival.
-        if node.clock_started() {
-            observer.set_clock(node.now().to_secs_f64());
+    let summary = run_loop(&mut source, &mut observer, &mut |out| {
+        let failed = match out {
+            Output::State(m) => states.send(m),
+            Output::Gesture(m) => gestures.send(m),
+            Output::Markers(m) => markers.as_ref().and_then(|p| p.send(m)),
+            Output::Warning(w) => Some(w),
+        };
+        if let Some(w) = failed {
+            warnings.warn(cowork_ros::monotonic_s(), &w);
         }
-        while let Some(m) = joints.take() {
-            if let Err(w) = observer.on_joint_state(&m) {
-                warnings.warn(&w);
-            }
-            any = true;
-        }
-        while let Some(m) = speech.take() {
-            observer.on_speech(&m);
-            any = true;
-        }
-        while let Some(m) = skeletons.take() {
-            // Taken now: a batch that takes long to handle must not look silent at the tick.
-            if node.clock_started() {
-                observer.set_clock(node.now().to_secs_f64());
-            }
-            let out = observer.on_skeleton(&m);
-            summary.skeletons += 1;
-            for w in &out.warnings {
-                warnings.warn(w);
-            }
-            publish(&states, out.state, &mut warnings);
-            if let Some(g) = out.gesture {
-                publish(&gestures, g, &mut warnings);
-            }
-            any = true;
-        }
-        if node.clock_started() {
-            let now = node.now().to_secs_f64();
-            if let Some(s) = observer.on_tick(now) {
-                publish(&states, s, &mut warnings);
-            }
-            if let Some(p) = &markers
-                && let Some(m) = observer.markers(now)
-            {
-                publish(p, m.clone(), &mut warnings);
-            }
-        }
-        if !any {
-            std::thread::sleep(Duration::from_millis(2));
-        }
-    }
-    summary.states = observer.states();
-    summary.gestures = observer.gestures();
+    });
     tracing::info!("human_observer stopped: {} skeleton frames, {} states, {} gestures", summary.skeletons, summary.states, summary.gestures);
     Ok(summary)
-}
-
-/// Publishes `msg`; a failure is logged (rate-limited) and the node goes on.
-fn publish<T: RosMessage>(publisher: &Publisher<T>, msg: T, warnings: &mut Warnings) {
-    if let Err(e) = publisher.publish(msg) {
-        warnings.warn(&Warning { kind: format!("publish:{}", publisher.topic()), message: format!("{}: publishing failed: {e:#}", publisher.topic()) });
-    }
 }

@@ -270,7 +270,7 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
             write_state(&node, &mut state_csv)?;
         }
         match &*m.topic {
-            human_observer::TOPIC_SKELETON => {
+            n if n == cowork_msgs::topics::SKELETON.name => {
                 let Ok(k) = m.decode::<Skeleton>() else {
                     warnings += 1;
                     continue;
@@ -316,7 +316,7 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
                     ])?;
                 }
             }
-            human_observer::TOPIC_JOINT_STATES => {
+            n if n == cowork_msgs::topics::JOINT_STATES.name => {
                 if let Ok(js) = m.decode::<JointState>()
                     && node.on_joint_state(&js).is_err()
                 {
@@ -328,7 +328,7 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
                     scored.labels.push(l);
                 }
             }
-            human_observer::TOPIC_SPEECH => {
+            n if n == cowork_msgs::topics::SPEECH_COMMAND.name => {
                 if let Ok(s) = m.decode::<RosString>() {
                     node.on_speech(&s);
                 }

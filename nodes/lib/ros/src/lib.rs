@@ -27,6 +27,7 @@
 
 pub mod config;
 pub mod graph;
+pub mod input;
 mod node;
 pub use node::{discovery_on_all_networks, domain_id_from_env};
 pub mod params;
@@ -35,6 +36,7 @@ pub mod raw;
 pub mod security;
 pub mod shutdown;
 
+pub use input::{DdsSource, Event, InputSource, RunOptions, StopCheck, WaitSet};
 pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};
 
 /// Default log filter: our own `info`; ros2-client only when something is really wrong;
@@ -123,62 +125,115 @@ mod text_prefix_tests {
     }
 }
 
-/// Logs each kind of warning at most once per period (wall clock), counting the ones held
-/// back; the one limiter the nodes share. At most [`RateLimiter::MAX_KINDS`] kinds are
-/// remembered (the oldest is forgotten), so kinds built from peer data cannot grow it.
-#[derive(Debug)]
-pub struct RateLimiter {
-    period: std::time::Duration,
-    last: std::collections::HashMap<String, (std::time::Instant, u64)>,
+/// A warning about an input or an output, produced by a node's pure handlers and logged by its
+/// run loop through [`Warnings`]. `kind` is the rate-limit key (topic + what went wrong);
+/// `message` names the topic and the field, and quotes peer text only through [`quote`].
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct Warning {
+    /// Rate-limit key, e.g. `/joint_states:length`.
+    pub kind: String,
+    /// The text logged.
+    pub message: String,
 }
 
-impl RateLimiter {
+impl Warning {
+    /// A warning of `kind` saying `message`.
+    pub fn new(kind: impl Into<String>, message: impl Into<String>) -> Self {
+        Self { kind: kind.into(), message: message.into() }
+    }
+}
+
+/// At most [`QUOTE_CHARS`] characters of peer-supplied `text`, for a warning ([`text_prefix`]).
+pub fn quote(text: &str) -> std::borrow::Cow<'_, str> {
+    text_prefix(text, QUOTE_CHARS)
+}
+
+/// Characters of peer text a warning quotes at most.
+pub const QUOTE_CHARS: usize = 64;
+
+/// Logs each kind of warning at most once per period, counting the ones held back; the one
+/// limiter the nodes share. Time is the caller's `now_s` (s, any monotonic clock), so a test
+/// drives it with a mock clock. At most [`Warnings::MAX_KINDS`] kinds are remembered (the
+/// oldest is forgotten), so kinds built from peer data cannot grow it.
+#[derive(Debug)]
+pub struct Warnings {
+    period_s: f64,
+    last: std::collections::HashMap<String, (f64, u64)>,
+    logged: u64,
+}
+
+/// The old name of [`Warnings`].
+pub type RateLimiter = Warnings;
+
+impl Warnings {
     /// Kinds remembered at most.
     pub const MAX_KINDS: usize = 256;
 
     /// At most one warning of a kind per `period_s` seconds.
     pub fn new(period_s: f64) -> Self {
-        Self { period: duration_s(period_s), last: std::collections::HashMap::new() }
+        Self { period_s: if period_s.is_finite() { period_s.max(0.0) } else { f64::MAX }, last: std::collections::HashMap::new(), logged: 0 }
     }
 
-    /// Logs `message` unless a warning of `kind` was logged within the period; returns
+    /// Logs `w` at `now_s` unless a warning of its kind was logged within the period; returns
     /// whether it was logged.
-    pub fn warn(&mut self, kind: &str, message: &str) -> bool {
-        let now = std::time::Instant::now();
+    pub fn warn(&mut self, now_s: f64, w: &Warning) -> bool {
+        self.warn_text(now_s, &w.kind, &w.message)
+    }
+
+    /// [`warn`](Self::warn) with the kind and message given apart.
+    pub fn warn_text(&mut self, now_s: f64, kind: &str, message: &str) -> bool {
         if let Some((at, held)) = self.last.get_mut(kind) {
-            if now.duration_since(*at) < self.period {
+            if now_s - *at < self.period_s && now_s >= *at {
                 *held += 1;
                 return false;
             }
             tracing::warn!("{message} ({held} more like it since the last warning)");
-            (*at, *held) = (now, 0);
+            (*at, *held) = (now_s, 0);
+            self.logged += 1;
             return true;
         }
         if self.last.len() >= Self::MAX_KINDS
-            && let Some(oldest) = self.last.iter().min_by_key(|(_, (t, _))| *t).map(|(k, _)| k.clone())
+            && let Some(oldest) = self.last.iter().min_by(|a, b| a.1.0.total_cmp(&b.1.0)).map(|(k, _)| k.clone())
         {
             self.last.remove(&oldest);
         }
         tracing::warn!("{message}");
-        self.last.insert(kind.to_owned(), (now, 0));
+        self.last.insert(kind.to_owned(), (now_s, 0));
+        self.logged += 1;
         true
+    }
+
+    /// Warnings logged so far (not counting the ones held back).
+    pub fn logged(&self) -> u64 {
+        self.logged
     }
 }
 
+/// Monotonic seconds since the first call in this process: the `now_s` a run loop gives
+/// [`Warnings`] when it has no better clock.
+pub fn monotonic_s() -> f64 {
+    static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+    START.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
+}
+
 #[cfg(test)]
-mod rate_limiter_tests {
-    use super::RateLimiter;
+mod warnings_tests {
+    use super::{Warning, Warnings, quote};
 
     #[test]
     fn one_warning_per_kind_per_period_and_bounded_kinds() {
-        let mut l = RateLimiter::new(3600.0);
-        assert!(l.warn("a", "first"));
-        assert!(!l.warn("a", "again"));
-        assert!(l.warn("b", "other kind"));
+        let mut l = Warnings::new(10.0);
+        assert!(l.warn(0.0, &Warning::new("a", "first")));
+        assert!(!l.warn(5.0, &Warning::new("a", "again")));
+        assert!(l.warn(5.0, &Warning::new("b", "other kind")));
+        assert!(l.warn(10.5, &Warning::new("a", "after the period")));
+        // A clock that jumps back (a new simulation) does not silence a kind for ever.
+        assert!(l.warn(1.0, &Warning::new("a", "clock went back")));
         for i in 0..1000 {
-            l.warn(&format!("k{i}"), "flood");
+            l.warn_text(20.0, &format!("k{i}"), "flood");
         }
-        assert!(l.last.len() <= RateLimiter::MAX_KINDS);
+        assert!(l.last.len() <= Warnings::MAX_KINDS);
+        assert_eq!(quote(&"x".repeat(10_000)).len(), 64 + "… (10000 bytes)".len());
     }
 }
 

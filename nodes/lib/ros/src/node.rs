@@ -291,6 +291,16 @@ impl RosNode {
         Ok(Subscription { inner, topic: topic.to_owned(), _type: PhantomData })
     }
 
+    /// A publisher on a graph topic ([`cowork_msgs::topics`]) with the topic's writer delivery.
+    pub fn advertise<T: RosMessage>(&mut self, topic: &cowork_msgs::topics::Topic<T>) -> Result<Publisher<T>> {
+        self.publisher::<T>(topic.name, &qos::of(topic.writer))
+    }
+
+    /// A subscription to a graph topic ([`cowork_msgs::topics`]) with the topic's reader delivery.
+    pub fn subscribe<T: RosMessage>(&mut self, topic: &cowork_msgs::topics::Topic<T>) -> Result<Subscription<T>> {
+        self.subscription::<T>(topic.name, &qos::of(topic.reader))
+    }
+
     /// Topics seen on the domain so far, with their ROS types (`pkg/msg/Name`); DDS-internal
     /// topics and ros2-client's own `/clock` reader are left out (see [`is_client_internal`]).
     pub fn discovered_topics(&self) -> Vec<TopicInfo> {
@@ -363,6 +373,12 @@ impl<T: RosMessage> Publisher<T> {
         }
     }
 
+    /// Publishes `msg`; a failure comes back as a [`crate::Warning`] (kind `publish:<topic>`)
+    /// for the node's rate-limited log: a node goes on when one write fails.
+    pub fn send(&self, msg: T) -> Option<crate::Warning> {
+        self.publish(msg).err().map(|e| crate::Warning::new(format!("publish:{}", self.topic), format!("{e:#}")))
+    }
+
     /// Messages dropped so far because a reliable reader's queue was full.
     pub fn dropped(&self) -> u64 {
         self.dropped.load(Ordering::Relaxed)
@@ -432,6 +448,12 @@ impl<T: RosMessage> Subscription<T> {
             }
             std::thread::sleep(Duration::from_micros(500));
         }
+    }
+
+    /// Registers this subscription with `registry` under `token`: the poll wakes when a message
+    /// arrives ([`crate::input::WaitSet`]). [`take`](Self::take) clears the wake-up.
+    pub(crate) fn register(&mut self, registry: &ros2_client::dds::rustdds::mio1::Registry, token: ros2_client::dds::rustdds::mio1::Token) -> std::io::Result<()> {
+        ros2_client::dds::rustdds::mio1::event::Source::register(&mut self.inner, registry, token, ros2_client::dds::rustdds::mio1::Interest::READABLE)
     }
 
     /// Number of matched publishers.

@@ -72,3 +72,14 @@ pub fn best_effort_depth(depth: usize) -> QosProfile {
 pub fn is_latched(qos: &QosProfile) -> bool {
     matches!(qos.durability, Durability::TransientLocal)
 }
+
+/// The DDS profile of a topic's [`Delivery`](cowork_msgs::topics::Delivery).
+pub fn of(delivery: cowork_msgs::topics::Delivery) -> QosProfile {
+    use cowork_msgs::topics::Delivery;
+    match delivery {
+        Delivery::Reliable { depth } => reliable_depth(depth),
+        Delivery::BestEffort { depth } => best_effort_depth(depth),
+        Delivery::Latched => latched(),
+        Delivery::Clock => clock(),
+    }
+}

@@ -50,3 +50,99 @@ unsafe impl GlobalAlloc for CountingAllocator {
 pub fn allocations() -> usize {
     ALLOCATIONS.with(Cell::get)
 }
+
+/// A scripted [`InputSource`](cowork_ros::InputSource) for a node's golden tests: inputs at
+/// given times (s) on a mock clock that jumps from one input or deadline to the next, so a
+/// test of minutes of node time runs in microseconds and gives the same outputs every time.
+#[derive(Debug, Clone)]
+pub struct ScriptedSource<I> {
+    script: std::collections::VecDeque<(f64, I)>,
+    now_s: f64,
+    end_s: f64,
+}
+
+impl<I> ScriptedSource<I> {
+    /// `script` sorted by time (s); the clock starts at the first input's time (or 0) and the
+    /// source ends at `end_s` (or at its last input when `end_s` is earlier).
+    pub fn new(mut script: Vec<(f64, I)>, end_s: f64) -> Self {
+        script.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let now_s = script.first().map_or(0.0, |(t, _)| *t);
+        let last = script.last().map_or(0.0, |(t, _)| *t);
+        Self { script: script.into(), now_s, end_s: end_s.max(last) }
+    }
+}
+
+impl<I> cowork_ros::InputSource<I> for ScriptedSource<I> {
+    fn next(&mut self, deadline_s: f64) -> cowork_ros::Event<I> {
+        match self.script.front() {
+            Some((t, _)) if *t <= deadline_s => {
+                let (t, input) = self.script.pop_front().expect("front exists");
+                self.now_s = self.now_s.max(t);
+                cowork_ros::Event::Input(input)
+            }
+            _ if deadline_s > self.end_s || !deadline_s.is_finite() => {
+                self.now_s = self.now_s.max(self.end_s);
+                cowork_ros::Event::End
+            }
+            _ => {
+                self.now_s = self.now_s.max(deadline_s);
+                cowork_ros::Event::Deadline
+            }
+        }
+    }
+
+    fn now_s(&self) -> f64 {
+        self.now_s
+    }
+}
+
+/// Compares `lines` (one JSON value per line, as a node's outputs) with the golden JSONL file
+/// at `path`; `UPDATE_GOLDEN=1` rewrites the file instead. On a difference the panic names
+/// the first differing line of each.
+pub fn assert_golden(path: &std::path::Path, lines: &[String]) {
+    let got = lines.iter().map(|l| format!("{l}\n")).collect::<String>();
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir).unwrap_or_else(|e| panic!("creating {}: {e}", dir.display()));
+        }
+        std::fs::write(path, &got).unwrap_or_else(|e| panic!("writing {}: {e}", path.display()));
+        return;
+    }
+    let want = std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("golden file {}: {e} (run with UPDATE_GOLDEN=1 to create it)", path.display()));
+    if want != got {
+        let (i, (w, g)) = want
+            .lines()
+            .chain(std::iter::repeat("<end>"))
+            .zip(got.lines().chain(std::iter::repeat("<end>")))
+            .enumerate()
+            .find(|(_, (w, g))| w != g)
+            .unwrap_or((0, ("?", "?")));
+        panic!(
+            "{} differs at line {} ({} lines expected, {} got; UPDATE_GOLDEN=1 rewrites it if the change is intended)\n  expected: {w}\n  got:      {g}",
+            path.display(),
+            i + 1,
+            want.lines().count(),
+            got.lines().count()
+        );
+    }
+}
+
+#[cfg(test)]
+mod scripted_tests {
+    use super::ScriptedSource;
+    use cowork_ros::{Event, InputSource};
+
+    #[test]
+    fn inputs_in_time_order_then_deadlines_then_the_end() {
+        let mut s = ScriptedSource::new(vec![(0.2, "b"), (0.1, "a")], 1.0);
+        assert_eq!(s.next(0.05), Event::Deadline);
+        assert_eq!(s.next(0.15), Event::Input("a"));
+        assert!((s.now_s() - 0.1).abs() < 1e-12);
+        assert_eq!(s.next(0.15), Event::Deadline);
+        assert_eq!(s.next(0.5), Event::Input("b"));
+        assert_eq!(s.next(0.9), Event::Deadline);
+        assert!((s.now_s() - 0.9).abs() < 1e-12);
+        assert_eq!(s.next(1.1), Event::End);
+    }
+}

@@ -1,0 +1,210 @@
+//! Every topic of the graph, defined once: its name, its message type and how it is delivered
+//! to writers and readers. Nodes open them with `cowork_ros::RosNode::{advertise, subscribe}`;
+//! the bag tools and the synthesiser (which have no ROS dependency) take names and types from
+//! here too, so a topic can never be spelt two ways.
+//!
+//! ```
+//! use cowork_msgs::topics;
+//! assert_eq!(topics::JOINT_STATES.name, "/joint_states");
+//! assert_eq!(topics::JOINT_STATES.type_name(), "sensor_msgs/msg/JointState");
+//! ```
+
+use std::marker::PhantomData;
+
+use crate::RosMessage;
+use crate::geometry_msgs::WrenchStamped;
+use crate::msg::{
+    ActionCommand, Gesture, HumanState, LinkDistances, MotionCommand, MotionStatus, ObjectStream, RobotStream, Skeleton,
+    WorkingMemory, WorldObject, WorldState,
+};
+use crate::rosgraph_msgs::Clock;
+use crate::sensor_msgs::{CameraInfo, Image, JointState};
+use crate::std_msgs::{Float64MultiArray, String as RosString};
+use crate::tf2_msgs::TFMessage;
+use crate::visualization_msgs::MarkerArray;
+
+/// How a topic is delivered (mapped to a DDS QoS profile by `cowork_ros::qos::of`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Delivery {
+    /// Reliable, volatile, keep last `depth`; a writer never waits for a slow reader.
+    Reliable {
+        /// Queue depth (messages).
+        depth: usize,
+    },
+    /// Best effort, volatile, keep last `depth`: only the newest samples matter.
+    BestEffort {
+        /// Queue depth (messages).
+        depth: usize,
+    },
+    /// Reliable, transient local, keep last 1: a late reader gets the last message.
+    Latched,
+    /// `/clock`: best effort, keep last 1.
+    Clock,
+}
+
+impl Delivery {
+    /// ROS 2's default: reliable, keep last 10.
+    pub const DEFAULT: Delivery = Delivery::Reliable { depth: 10 };
+    /// Sensor streams (rclcpp's `SensorDataQoS`): best effort, keep last 5.
+    pub const SENSOR_DATA: Delivery = Delivery::BestEffort { depth: 5 };
+}
+
+/// A topic of the graph: name, message type `T`, and the delivery of its writers and readers.
+/// The two may differ: `/joint_states` is written reliably but read best effort, so a stalled
+/// reader never blocks the simulator's 1 kHz writes.
+#[derive(Debug)]
+pub struct Topic<T> {
+    /// ROS name, e.g. `/joint_states`.
+    pub name: &'static str,
+    /// Delivery of the graph's writers.
+    pub writer: Delivery,
+    /// Delivery of the graph's readers.
+    pub reader: Delivery,
+    _type: PhantomData<fn() -> T>,
+}
+
+impl<T> Clone for Topic<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for Topic<T> {}
+
+impl<T: RosMessage> Topic<T> {
+    /// A topic whose writers and readers share `delivery`.
+    pub const fn new(name: &'static str, delivery: Delivery) -> Self {
+        Self { name, writer: delivery, reader: delivery, _type: PhantomData }
+    }
+
+    /// A topic written with `writer` and read with `reader`.
+    pub const fn with_reader(name: &'static str, writer: Delivery, reader: Delivery) -> Self {
+        Self { name, writer, reader, _type: PhantomData }
+    }
+
+    /// The same topic read (or written, by the same token) with another delivery: a tool that
+    /// wants a deeper queue than the graph's nodes.
+    pub const fn reading(self, reader: Delivery) -> Self {
+        Self { reader, ..self }
+    }
+
+    /// The same topic written with another delivery (a bag replay that would rather wait).
+    pub const fn writing(self, writer: Delivery) -> Self {
+        Self { writer, ..self }
+    }
+
+    /// ROS type name, e.g. `sensor_msgs/msg/JointState`.
+    pub fn type_name(&self) -> String {
+        T::type_name()
+    }
+}
+
+/// Simulated time, written by `lwr_sim`.
+pub const CLOCK: Topic<Clock> = Topic::new("/clock", Delivery::Clock);
+/// The arm's joint positions / velocities (1 kHz, `lwr_sim`); read best effort, newest first.
+pub const JOINT_STATES: Topic<JointState> =
+    Topic::with_reader("/joint_states", Delivery::DEFAULT, Delivery::BestEffort { depth: 100 });
+/// Joint velocity command (rad/s) from `ds_controller` to `lwr_sim`.
+pub const JOINT_VELOCITY_COMMAND: Topic<Float64MultiArray> = Topic::new("/lwr/joint_velocity_command", Delivery::DEFAULT);
+/// `open` / `close` for the gripper.
+pub const GRIPPER_COMMAND: Topic<RosString> = Topic::new("/lwr/gripper_command", Delivery::DEFAULT);
+/// Pushes on the arm by a person or a test (base frame, N / N·m), in.
+pub const EXTERNAL_WRENCH: Topic<WrenchStamped> = Topic::new("/external_wrench", Delivery::Reliable { depth: 1000 });
+/// The wrench `lwr_sim` measures on the arm in execute mode, out, for the controller.
+pub const LWR_EXTERNAL_WRENCH: Topic<WrenchStamped> =
+    Topic::with_reader("/lwr/external_wrench", Delivery::Reliable { depth: 100 }, Delivery::BestEffort { depth: 100 });
+/// Link transforms.
+pub const TF: Topic<TFMessage> = Topic::new("/tf", Delivery::Reliable { depth: 100 });
+/// Static transforms (camera, world), latched.
+pub const TF_STATIC: Topic<TFMessage> = Topic::new("/tf_static", Delivery::Latched);
+/// The arm's URDF, latched.
+pub const ROBOT_DESCRIPTION: Topic<RosString> = Topic::new("/robot_description", Delivery::Latched);
+/// Simulated depth image (m, 32FC1).
+pub const DEPTH_IMAGE: Topic<Image> = Topic::new("/camera/depth/image_raw", Delivery::SENSOR_DATA);
+/// The depth camera's intrinsics.
+pub const DEPTH_CAMERA_INFO: Topic<CameraInfo> = Topic::new("/camera/depth/camera_info", Delivery::SENSOR_DATA);
+/// Ground truth of the simulated world: object poses, gripper, what is held.
+pub const WORLD: Topic<WorldState> = Topic::new("/lwr/world", Delivery::Reliable { depth: 100 });
+/// A person moves a scene object (name + pose).
+pub const PLACE_OBJECT: Topic<WorldObject> = Topic::new("/lwr/place_object", Delivery::Reliable { depth: 100 });
+/// The tracked person's skeleton (Xsens / Kinect / synthesised).
+pub const SKELETON: Topic<Skeleton> = Topic::with_reader("/human/skeleton", Delivery::Reliable { depth: 50 }, Delivery::DEFAULT);
+/// The human observer's state of the person (distance, speed, attention).
+pub const HUMAN_STATE: Topic<HumanState> = Topic::new("/human/state", Delivery::DEFAULT);
+/// Recognised gestures.
+pub const GESTURE: Topic<Gesture> = Topic::new("/human/gesture", Delivery::DEFAULT);
+/// The person's skeleton as markers, for RViz / Foxglove.
+pub const HUMAN_MARKERS: Topic<MarkerArray> = Topic::new("/human/markers", Delivery::DEFAULT);
+/// Speech commands (`teach`, `done`, `stop`, `repeat`, `human add(water)` …).
+pub const SPEECH_COMMAND: Topic<RosString> = Topic::new("/speech_command", Delivery::DEFAULT);
+/// fDED distances from each link to the obstacles (m).
+pub const FDED_DISTANCES: Topic<LinkDistances> = Topic::new("/fded/distances", Delivery::DEFAULT);
+/// fDED's obstacle points and closest pairs as markers.
+pub const FDED_MARKERS: Topic<MarkerArray> = Topic::new("/fded/markers", Delivery::DEFAULT);
+/// A motion for the controller (primitive, goal, gains).
+pub const MOTION_COMMAND: Topic<MotionCommand> = Topic::new("/motion/command", Delivery::Reliable { depth: 10 });
+/// The controller's progress on the current motion.
+pub const MOTION_STATUS: Topic<MotionStatus> = Topic::new("/motion/status", Delivery::Reliable { depth: 10 });
+/// The robot manager's action events and segments.
+pub const ROBOT_STREAM: Topic<RobotStream> = Topic::new("/robot_stream", Delivery::Reliable { depth: 100 });
+/// Objects the robot manager sees (visible, pose).
+pub const OBJECT_STREAM: Topic<ObjectStream> = Topic::new("/object_stream", Delivery::DEFAULT);
+/// Objects the robot holds or is about to hold (fDED leaves them out of the obstacles).
+pub const MANIPULATED_OBJECTS: Topic<ObjectStream> = Topic::new("/manipulated_objects", Delivery::Reliable { depth: 100 });
+/// The supervisor's action for the robot manager.
+pub const SUPERVISOR_ACTION: Topic<ActionCommand> = Topic::new("/supervisor/action", Delivery::DEFAULT);
+/// The supervisor's working memory (for tools and reports).
+pub const WORKING_MEMORY: Topic<WorkingMemory> = Topic::new("/supervisor/working_memory", Delivery::DEFAULT);
+
+/// Name, ROS type and writer delivery of every topic above (bag tools, the README's table).
+pub fn all() -> Vec<(&'static str, String, Delivery)> {
+    fn e<T: RosMessage>(t: &Topic<T>) -> (&'static str, String, Delivery) {
+        (t.name, t.type_name(), t.writer)
+    }
+    vec![
+        e(&CLOCK),
+        e(&JOINT_STATES),
+        e(&JOINT_VELOCITY_COMMAND),
+        e(&GRIPPER_COMMAND),
+        e(&EXTERNAL_WRENCH),
+        e(&LWR_EXTERNAL_WRENCH),
+        e(&TF),
+        e(&TF_STATIC),
+        e(&ROBOT_DESCRIPTION),
+        e(&DEPTH_IMAGE),
+        e(&DEPTH_CAMERA_INFO),
+        e(&WORLD),
+        e(&PLACE_OBJECT),
+        e(&SKELETON),
+        e(&HUMAN_STATE),
+        e(&GESTURE),
+        e(&HUMAN_MARKERS),
+        e(&SPEECH_COMMAND),
+        e(&FDED_DISTANCES),
+        e(&FDED_MARKERS),
+        e(&MOTION_COMMAND),
+        e(&MOTION_STATUS),
+        e(&ROBOT_STREAM),
+        e(&OBJECT_STREAM),
+        e(&MANIPULATED_OBJECTS),
+        e(&SUPERVISOR_ACTION),
+        e(&WORKING_MEMORY),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_unique_ros_names_and_types_are_known() {
+        let all = all();
+        let mut names: Vec<_> = all.iter().map(|(n, _, _)| *n).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), all.len(), "a topic is defined twice");
+        for (name, ty, _) in &all {
+            assert!(name.starts_with('/') && !name.ends_with('/') && !name.contains("//"), "{name}");
+            assert!(crate::find_type(ty).is_some(), "{name}: type {ty} not in the registry");
+        }
+    }
+}
