@@ -61,15 +61,24 @@ impl Default for DepthConfig {
     }
 }
 
+/// The floor is at most this far above or below the table top, m.
+pub const MAX_FLOOR_DISTANCE_M: f64 = 10.0;
+/// Longest `depth.person_timeout_s`, s (a person is drawn at most this long after their last
+/// skeleton).
+pub const MAX_PERSON_TIMEOUT_S: f64 = 3600.0;
+
 impl DepthConfig {
-    /// Rejects a bad encoding, a non-finite floor height and a timeout that is not > 0.
+    /// Rejects a bad encoding, a floor height beyond [`MAX_FLOOR_DISTANCE_M`] and a timeout
+    /// outside (0, [`MAX_PERSON_TIMEOUT_S`]], naming the key.
     pub fn validate(&self, place: &str) -> Result<()> {
         self.encoding(place)?;
-        if !self.floor_height_m.is_finite() {
-            bail!("{place}: `depth.floor_height_m` = {} must be finite (m)", self.floor_height_m);
+        let z = self.floor_height_m;
+        if !(z.is_finite() && z.abs() <= MAX_FLOOR_DISTANCE_M) {
+            bail!("{place}: `depth.floor_height_m` = {z} must be in [-{MAX_FLOOR_DISTANCE_M}, {MAX_FLOOR_DISTANCE_M}] m");
         }
-        if !(self.person_timeout_s.is_finite() && self.person_timeout_s > 0.0) {
-            bail!("{place}: `depth.person_timeout_s` = {} must be > 0 s", self.person_timeout_s);
+        let t = self.person_timeout_s;
+        if !(t.is_finite() && t > 0.0 && t <= MAX_PERSON_TIMEOUT_S) {
+            bail!("{place}: `depth.person_timeout_s` = {t} must be in (0, {MAX_PERSON_TIMEOUT_S}] s");
         }
         Ok(())
     }
@@ -141,7 +150,7 @@ impl People {
             Ok(p) => p,
             Err(e) => {
                 self.rejected += 1;
-                bail!("/human/skeleton of person {}: {e}", msg.person_id);
+                bail!("{} of person {}: {e}", cowork_msgs::topics::SKELETON.name, msg.person_id);
             }
         };
         let body = body_capsules(&pose);
@@ -260,6 +269,16 @@ impl Mailbox {
         };
         snap.capture(sim, people);
         slot.next = Some(snap);
+        drop(slot);
+        self.ready.notify_one();
+    }
+
+    /// Posts a snapshot captured by the loop (replacing an untaken one).
+    pub fn post_snapshot(&self, snap: DepthSnapshot) {
+        let Ok(mut slot) = self.slot.lock() else { return };
+        if slot.next.replace(snap).is_some() {
+            slot.dropped += 1;
+        }
         drop(slot);
         self.ready.notify_one();
     }

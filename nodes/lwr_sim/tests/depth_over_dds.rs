@@ -6,10 +6,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use cowork_depth::{DepthImage, DepthRenderer, Intrinsics, Label, Layers};
-use cowork_msgs::sensor_msgs::{CameraInfo, Image};
-use cowork_msgs::tf2_msgs::TFMessage;
 use cowork_robot::{JointVector, LinkPoses, RobotModel};
-use cowork_ros::{NodeConfig, RosNode, Subscription, qos};
+use cowork_msgs::topics;
+use cowork_ros::{NodeConfig, RosNode, Subscription};
 use cowork_sim::{Scene, Simulator};
 use lwr_sim::{LwrSim, LwrSimConfig, Pacing};
 
@@ -69,9 +68,9 @@ fn depth_frames_show_the_robot_where_forward_kinematics_puts_it() {
     let domain = private_domain(1);
     let sim = start_sim(domain, config(false, "32FC1"), 6.0);
     let mut client = RosNode::new("depth_client", &NodeConfig { domain_id: Some(domain), ..Default::default() }).unwrap();
-    let images = client.subscription::<Image>("/camera/depth/image_raw", &qos::sensor_data()).unwrap();
-    let infos = client.subscription::<CameraInfo>("/camera/depth/camera_info", &qos::sensor_data()).unwrap();
-    let tf_static = client.subscription::<TFMessage>("/tf_static", &qos::latched()).unwrap();
+    let images = client.subscribe(&topics::DEPTH_IMAGE).unwrap();
+    let infos = client.subscribe(&topics::DEPTH_CAMERA_INFO).unwrap();
+    let tf_static = client.subscribe(&topics::TF_STATIC).unwrap();
 
     let image = wait(&images, Duration::from_secs(15)).expect("a depth frame arrives over DDS");
     let info = wait(&infos, Duration::from_secs(5)).expect("camera info arrives");
@@ -145,7 +144,7 @@ fn noisy_16uc1_frames_arrive_at_the_camera_rate() {
     let domain = private_domain(2);
     let sim = start_sim(domain, config(true, "16UC1"), 6.0);
     let mut client = RosNode::new("depth_client", &NodeConfig { domain_id: Some(domain), ..Default::default() }).unwrap();
-    let images = client.subscription::<Image>("/camera/depth/image_raw", &qos::sensor_data()).unwrap();
+    let images = client.subscribe(&topics::DEPTH_IMAGE).unwrap();
     let first = wait(&images, Duration::from_secs(15)).expect("a depth frame arrives over DDS");
     assert_eq!(first.encoding, "16UC1");
     // Frames over 2 s of (real-time paced) simulated time: each is stamped on the camera's

@@ -59,7 +59,7 @@ fn a_skeleton_puts_a_person_in_the_depth_image_until_it_times_out() {
     assert_eq!(person, 0);
     assert!(floor > 10_000, "the floor is seen around the table: {floor} px");
 
-    lwr.on_skeleton(&skeleton(1.0));
+    assert_eq!(lwr.on_skeleton(&skeleton(1.0)), None);
     assert_eq!(lwr.people().ids().collect::<Vec<_>>(), [7]);
     let (person, floor_with) = render(&lwr, &config);
     assert!(person > 3_000, "person pixels: {person}");
@@ -71,7 +71,9 @@ fn a_skeleton_puts_a_person_in_the_depth_image_until_it_times_out() {
     bad.segment_names.remove(head);
     bad.poses.remove(head);
     bad.velocities.remove(head);
-    lwr.on_skeleton(&bad);
+    let refused = lwr.on_skeleton(&bad).expect("a malformed skeleton is refused with a warning");
+    assert_eq!(refused.kind, "/human/skeleton:frame");
+    assert!(refused.message.contains("person 7"), "{}", refused.message);
     assert_eq!(lwr.people().rejected(), 1);
     assert_eq!(render(&lwr, &config).0, person);
 
