@@ -191,7 +191,7 @@ impl Adapter {
             return bad(format!("force {norm:.1} N on {frame} exceeds ttc.max_force {} N", self.max_force));
         }
         let age = now - stamp;
-        if !(age.abs() <= self.max_wrench_age_s) {
+        if age.is_nan() || age.abs() > self.max_wrench_age_s {
             return bad(format!("stale: stamped {age:.3} s before now (bound ±ttc.max_wrench_age_s = {} s)", self.max_wrench_age_s));
         }
         let Some(q) = q else {

@@ -211,7 +211,7 @@ impl SceneObjects {
         let Some(c) = self.camera else { return false };
         let to_camera = c - p;
         let length = to_camera.norm();
-        if !(length > 1e-9) {
+        if length.is_nan() || length <= 1e-9 {
             return false;
         }
         let step = self.margin_m.clamp(0.005, 0.02);
