@@ -221,7 +221,7 @@ impl LwrSim {
     pub fn on_input(&mut self, input: &Input) -> Option<Output> {
         match input {
             Input::VelocityCommand(m) => self.on_velocity_command(m).map(Output::Warning),
-            Input::GripperCommand(m) => Some(self.on_gripper_command(m)),
+            Input::GripperCommand(m) => Some(self.gripper_command(m)),
             Input::Wrench(m) => self.on_wrench(m).map(Output::Warning),
             Input::Skeleton(m) => self.on_skeleton(m).map(Output::Warning),
             Input::PlaceObject(m) => self.on_place_object(m).err().map(Output::Warning),
@@ -238,9 +238,18 @@ impl LwrSim {
             .map(|e| Warning::new(format!("{topic}:data"), format!("{topic} rejected, robot held: {e}")))
     }
 
-    /// Opens or closes the gripper on `open` / `close` ([`Output::Gripper`]); anything else
-    /// is a warning and changes nothing.
-    pub fn on_gripper_command(&mut self, msg: &RosString) -> Output {
+    /// Opens or closes the gripper on `open` / `close`; anything else is refused (the
+    /// warning says why) and changes nothing. ([`on_input`](Self::on_input) also reports
+    /// what the gripper closed on.)
+    pub fn on_gripper_command(&mut self, msg: &RosString) -> Option<Warning> {
+        match self.gripper_command(msg) {
+            Output::Warning(w) => Some(w),
+            _ => None,
+        }
+    }
+
+    /// `/lwr/gripper_command`: [`Output::Gripper`], or the warning.
+    fn gripper_command(&mut self, msg: &RosString) -> Output {
         match msg.data.trim().to_ascii_lowercase().as_str() {
             "close" => Output::Gripper { closed: true, object: self.sim.command_gripper(true).map(str::to_owned) },
             "open" => {
