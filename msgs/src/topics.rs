@@ -132,6 +132,9 @@ pub const SKELETON: Topic<Skeleton> = Topic::with_reader("/human/skeleton", Deli
 pub const HUMAN_STATE: Topic<HumanState> = Topic::new("/human/state", Delivery::DEFAULT);
 /// Recognised gestures.
 pub const GESTURE: Topic<Gesture> = Topic::new("/human/gesture", Delivery::DEFAULT);
+/// Gesture labels of a training recording (JSON `label`, `start`, `end`), for learning the
+/// gesture model from bags.
+pub const GESTURE_LABEL: Topic<RosString> = Topic::new("/human/gesture_label", Delivery::DEFAULT);
 /// The person's skeleton as markers, for RViz / Foxglove.
 pub const HUMAN_MARKERS: Topic<MarkerArray> = Topic::new("/human/markers", Delivery::DEFAULT);
 /// Speech commands (`teach`, `done`, `stop`, `repeat`, `human add(water)` …).
@@ -177,6 +180,7 @@ pub fn all() -> Vec<(&'static str, String, Delivery)> {
         e(&SKELETON),
         e(&HUMAN_STATE),
         e(&GESTURE),
+        e(&GESTURE_LABEL),
         e(&HUMAN_MARKERS),
         e(&SPEECH_COMMAND),
         e(&FDED_DISTANCES),
@@ -189,6 +193,11 @@ pub fn all() -> Vec<(&'static str, String, Delivery)> {
         e(&SUPERVISOR_ACTION),
         e(&WORKING_MEMORY),
     ]
+}
+
+/// The writer delivery of the graph topic called `name`, if it is one.
+pub fn writer_delivery(name: &str) -> Option<Delivery> {
+    all().into_iter().find(|(n, _, _)| *n == name).map(|(_, _, d)| d)
 }
 
 #[cfg(test)]

@@ -46,22 +46,14 @@ mod node;
 mod params;
 mod run;
 
-pub use node::{FdedNode, MAX_CAMERA_FRAMES, RateLimitedWarnings, Skip, isometry};
+pub use cowork_ros::RunOptions;
+pub use node::{FdedNode, MAX_CAMERA_FRAMES, Skip, isometry};
 pub use params::{ManipulatedParams, Params};
-pub use run::{RunOptions, RunSummary, run};
+pub use run::{Input, Output, RunSummary, run, run_scripted};
 
-/// Depth images in.
-pub const TOPIC_DEPTH: &str = "/camera/depth/image_raw";
-/// Camera intrinsics in.
-pub const TOPIC_CAMERA_INFO: &str = "/camera/depth/camera_info";
-/// Joint positions in.
-pub const TOPIC_JOINT_STATES: &str = "/joint_states";
-/// Camera pose in (base → camera optical frame).
-pub const TOPIC_TF_STATIC: &str = "/tf_static";
-/// Objects the robot manipulates in (robot_manager): their pixels are not obstacles
-/// ([`manipulated`]).
-pub const TOPIC_MANIPULATED: &str = "/manipulated_objects";
-/// Per-link distances out.
-pub const TOPIC_DISTANCES: &str = "/fded/distances";
-/// Markers for viewers out.
-pub const TOPIC_MARKERS: &str = "/fded/markers";
+// Topic names for the node's warnings, from the one definition in `cowork_msgs::topics`.
+const TOPIC_DEPTH: &str = cowork_msgs::topics::DEPTH_IMAGE.name;
+const TOPIC_CAMERA_INFO: &str = cowork_msgs::topics::DEPTH_CAMERA_INFO.name;
+const TOPIC_JOINT_STATES: &str = cowork_msgs::topics::JOINT_STATES.name;
+const TOPIC_TF_STATIC: &str = cowork_msgs::topics::TF_STATIC.name;
+const TOPIC_MANIPULATED: &str = cowork_msgs::topics::MANIPULATED_OBJECTS.name;

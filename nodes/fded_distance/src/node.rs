@@ -29,36 +29,12 @@ const JOINT_HISTORY: usize = 2048;
 /// frame names cannot grow the node without bound.
 pub const MAX_CAMERA_FRAMES: usize = 64;
 
-/// Why a frame (or a message) was not used. The text is the warning logged, naming the topic
-/// and the reason; `kind` is the key of the rate limiter.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Skip {
-    /// Short kind, the key of the rate limiter.
-    pub kind: &'static str,
-    /// The message.
-    pub message: String,
-}
+/// Why a frame (or a message) was not used: a [`cowork_ros::Warning`] whose text names the
+/// topic and the reason and whose `kind` is the key of the rate limiter.
+pub type Skip = cowork_ros::Warning;
 
 fn skip(kind: &'static str, message: String) -> Skip {
-    Skip { kind, message }
-}
-
-/// Logs each kind of warning at most once per period, counting the ones it held back
-/// ([`cowork_ros::RateLimiter`]).
-#[derive(Debug)]
-pub struct RateLimitedWarnings(cowork_ros::RateLimiter);
-
-impl RateLimitedWarnings {
-    /// A limiter with `period_s` seconds between two warnings of the same kind.
-    pub fn new(period_s: f64) -> Self {
-        Self(cowork_ros::RateLimiter::new(period_s))
-    }
-
-    /// Logs `skip` unless one of its kind was logged within the period; returns whether it
-    /// was logged.
-    pub fn warn(&mut self, skip: &Skip) -> bool {
-        self.0.warn(skip.kind, &skip.message)
-    }
+    Skip::new(kind, message)
 }
 
 /// The node's state: camera intrinsics and the fDED engine (built when the first camera info

@@ -235,16 +235,6 @@ fn joint_state_closest_to_the_frame_stamp_is_used() {
 }
 
 #[test]
-fn rate_limited_warnings_hold_back_repeats() {
-    let mut w = fded_distance::RateLimitedWarnings::new(60.0);
-    let s = fded_distance::Skip { kind: "size", message: "x".into() };
-    assert!(w.warn(&s));
-    assert!(!w.warn(&s));
-    let other = fded_distance::Skip { kind: "image", message: "y".into() };
-    assert!(w.warn(&other));
-}
-
-#[test]
 fn bundled_parameters_are_valid_and_typos_fail() {
     params().validate("config/fded_distance.yaml").expect("valid");
     let bad = "fded_distance:\n  ros__parameters:\n    backend: cuda\n";
@@ -457,4 +447,71 @@ fn method_flacco_gives_sphere_distances_with_points_and_normals() {
     let mut bad = params();
     bad.method = "spheres".into();
     assert!(bad.validate("x").unwrap_err().to_string().contains("fded or flacco"));
+}
+
+/// Golden file: a scripted stream through the node's inbox and handlers
+/// ([`fded_distance::run_scripted`]): a frame before any camera info, bad intrinsics, a
+/// NaN joint state, a bad transform, then good frames with a sphere approaching the arm, an
+/// unknown encoding and a blind frame; every output summarised one JSON per line and compared
+/// with `tests/golden/fded.jsonl` (`UPDATE_GOLDEN=1` rewrites it).
+#[test]
+fn scripted_stream_gives_the_golden_outputs() {
+    use cowork_testkit::{ScriptedSource, assert_golden};
+    use fded_distance::{Input, Output};
+    use serde_json::json;
+
+    let model = model();
+    let (cam, k) = kitchen_camera();
+    let mut p = params();
+    p.publish_markers = true;
+    // The CPU path: the golden distances must not depend on which adapter a machine has.
+    p.backend = "cpu".into();
+    let mut node = FdedNode::new(model.clone(), p).expect("node");
+    let frame = |t: f64, x: f64| render(&model, &k, &cam, &Q, Point3::new(x, 0.0, 0.75), 0.08).to_image_msg(Time::from_secs_f64(t), FRAME, Encoding::F32Metres);
+    let mut bad_info = k.to_camera_info(Time::default(), FRAME);
+    bad_info.k[0] = f64::NAN;
+    let mut nan_joints = joint_state(&model, &Q, Time::from_secs_f64(0.2));
+    nan_joints.position[3] = f64::NAN;
+    let mut bad_tf = tf_static(&model.link_names()[0], &cam);
+    bad_tf.transforms[0].transform.rotation.w = f64::NAN;
+    let mut script = vec![
+        (0.10, Input::Depth(frame(0.1, 0.9))),
+        (0.15, Input::CameraInfo(bad_info)),
+        (0.20, Input::JointState(nan_joints)),
+        (0.25, Input::TfStatic(bad_tf)),
+        (0.30, Input::CameraInfo(k.to_camera_info(Time::default(), FRAME))),
+        (0.31, Input::TfStatic(tf_static(&model.link_names()[0], &cam))),
+    ];
+    for (i, x) in [0.95, 0.9, 0.85, 0.8].into_iter().enumerate() {
+        let t = 0.4 + 0.1 * i as f64;
+        script.push((t - 0.01, Input::JointState(joint_state(&model, &Q, Time::from_secs_f64(t)))));
+        script.push((t, Input::Depth(frame(t, x))));
+    }
+    let mut rgb = frame(0.9, 0.8);
+    rgb.encoding = "rgb8".into();
+    script.push((0.9, Input::Depth(rgb)));
+    let blind = Image { data: f32::NAN.to_le_bytes().repeat((k.width * k.height) as usize), ..frame(1.0, 0.8) };
+    script.push((1.0, Input::Depth(blind)));
+    let mut source = ScriptedSource::new(script, 1.1);
+
+    let mut lines = Vec::new();
+    let summary = fded_distance::run_scripted(&mut source, &mut node, &mut |out| {
+        lines.push(
+            match out {
+                Output::Distances(d) => {
+                    let m = &d.links[d.min_index.max(0) as usize];
+                    json!({ "distances": d.header.stamp.to_secs_f64(), "min_link": m.link_name, "min_mm": (m.distance * 1e3).round(), "valid": d.links.iter().filter(|l| l.valid).count() })
+                }
+                Output::Markers(m) => json!({ "markers": m.markers.len() }),
+                Output::Warning(w) => json!({ "warning": w.kind, "message": w.message }),
+            }
+            .to_string(),
+        );
+    });
+    assert_eq!(summary.frames, 4, "the four good frames");
+    let text = lines.join("\n");
+    for kind in ["no_camera_info", "camera_info", "joint_state", "tf_static", "image", "blind"] {
+        assert!(text.contains(&format!("\"warning\":\"{kind}\"")), "{kind} missing:\n{text}");
+    }
+    assert_golden(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden/fded.jsonl"), &lines);
 }

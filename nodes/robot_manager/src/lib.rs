@@ -22,28 +22,6 @@ pub mod run;
 
 pub use node::{Outbox, RobotManagerNode};
 pub use params::Params;
-pub use run::{RunOptions, run};
+pub use cowork_ros::RunOptions;
+pub use run::{Input, run, run_loop};
 
-/// Topics, defined once.
-pub mod topics {
-    /// In: the simulator's world state.
-    pub const WORLD: &str = "/lwr/world";
-    /// In: speech.
-    pub const SPEECH: &str = "/speech_command";
-    /// In: supervisor actions.
-    pub const ACTION: &str = "/supervisor/action";
-    /// In: controller status.
-    pub const MOTION_STATUS: &str = "/motion/status";
-    /// In: gestures.
-    pub const GESTURE: &str = "/human/gesture";
-    /// Out: controller commands.
-    pub const MOTION_COMMAND: &str = "/motion/command";
-    /// Out: gripper.
-    pub const GRIPPER: &str = "/lwr/gripper_command";
-    /// Out: robot state for the supervisor.
-    pub const ROBOT_STREAM: &str = "/robot_stream";
-    /// Out: objects for the supervisor.
-    pub const OBJECT_STREAM: &str = "/object_stream";
-    /// Out: the objects being manipulated (held, or the running action's target), for fded_distance.
-    pub const MANIPULATED: &str = "/manipulated_objects";
-}

@@ -1,9 +1,7 @@
 //! The node's state and one handler per message: messages in, messages out, no I/O (logging
 //! aside). Tests drive it with messages and a mock clock.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use cowork_manager::{
     ActionKind, ActionRequest, Database, GripperCommand, Input, Manager, MotionPlan, MotionReport, MotionState, Mode,
@@ -33,6 +31,8 @@ pub struct Outbox {
     pub object_stream: Vec<ObjectStream>,
     /// `/manipulated_objects`.
     pub manipulated: Vec<ObjectStream>,
+    /// Warnings for the log (the run loop rate-limits them).
+    pub warnings: Vec<cowork_ros::Warning>,
 }
 
 impl Outbox {
@@ -43,41 +43,7 @@ impl Outbox {
         self.robot_stream.clear();
         self.object_stream.clear();
         self.manipulated.clear();
-    }
-}
-
-/// Identical warnings at most once per period (wall clock), with the count of the others.
-#[derive(Debug)]
-pub struct WarnLimiter {
-    period_s: f64,
-    last: HashMap<String, (Instant, u64)>,
-}
-
-impl WarnLimiter {
-    /// A limiter with this period, s.
-    pub fn new(period_s: f64) -> Self {
-        Self { period_s, last: HashMap::new() }
-    }
-
-    /// Logs `text` unless it was logged less than a period ago.
-    pub fn warn(&mut self, text: &str) {
-        let now = Instant::now();
-        if self.last.len() > 256 {
-            let p = self.period_s;
-            self.last.retain(|_, (t, _)| now.duration_since(*t).as_secs_f64() < p);
-        }
-        match self.last.get_mut(text) {
-            Some((t, n)) if now.duration_since(*t).as_secs_f64() < self.period_s => *n += 1,
-            Some((t, n)) => {
-                tracing::warn!("{text} (repeated {n} more times)");
-                *t = now;
-                *n = 0;
-            }
-            None => {
-                tracing::warn!("{text}");
-                self.last.insert(text.to_owned(), (now, 0));
-            }
-        }
+        self.warnings.clear();
     }
 }
 
@@ -146,7 +112,8 @@ pub struct RobotManagerNode {
     segments: Vec<ActionSegment>,
     last_stream_s: Option<f64>,
     out: Vec<Output>,
-    limiter: WarnLimiter,
+    /// Warnings not yet handed to the run loop ([`Self::take_warnings`]).
+    pending_warnings: Vec<cowork_ros::Warning>,
     warnings: u64,
     last_warning: Option<String>,
     last_world: Option<WorldState>,
@@ -188,7 +155,6 @@ impl RobotManagerNode {
                 Database::new(&params.manager.robot)
             }
         };
-        let limiter = WarnLimiter::new(params.warning_period_s);
         let node = Self {
             manager: Manager::new(params.manager.clone(), db),
             params,
@@ -198,12 +164,17 @@ impl RobotManagerNode {
             segments: Vec::new(),
             last_stream_s: None,
             out: Vec::new(),
-            limiter,
+            pending_warnings: Vec::new(),
             warnings: 0,
             last_warning: None,
             last_world: None,
         };
         (node, problem)
+    }
+
+    /// The parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
     }
 
     /// The library object.
@@ -261,7 +232,14 @@ impl RobotManagerNode {
     fn warn(&mut self, text: &str) {
         self.warnings += 1;
         self.last_warning = Some(text.to_owned());
-        self.limiter.warn(text);
+        // The kind is the text itself, cut short: identical warnings are rate-limited together.
+        let kind = cowork_ros::quote(text).into_owned();
+        self.pending_warnings.push(cowork_ros::Warning::new(kind, text));
+    }
+
+    /// The warnings made since the last call, for the run loop's rate-limited log.
+    pub fn take_warnings(&mut self, into: &mut Vec<cowork_ros::Warning>) {
+        into.append(&mut self.pending_warnings);
     }
 
     fn run(&mut self, input: Input, now: Stamp, outbox: &mut Outbox) {

@@ -5,26 +5,77 @@
 //! simulated time, a depth-100 queue) overflowed — a whole NOA was never segmented. The saver
 //! always writes the newest copy it was given; saves finish in order.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::Result;
 use cowork_manager::Stamp;
-use cowork_msgs::msg::{ActionCommand, Gesture, MotionCommand, MotionStatus, ObjectStream, RobotStream, WorldState};
+use cowork_msgs::msg::{ActionCommand, Gesture, MotionStatus, WorldState};
 use cowork_msgs::std_msgs::String as RosString;
-use cowork_ros::{RosNode, qos};
+use cowork_msgs::topics;
+use cowork_ros::{DdsSource, Event, InputSource, RosNode, RunOptions, Warnings};
 
 use crate::node::{Outbox, RobotManagerNode, write_database};
-use crate::topics;
 
-/// Options of [`run`].
-#[derive(Debug, Default, Clone)]
-pub struct RunOptions {
-    /// Stop after this many wall-clock seconds.
-    pub duration_s: Option<f64>,
-    /// Stop when this flag is raised (besides Ctrl-C / SIGTERM).
-    pub stop: Option<Arc<AtomicBool>>,
+/// What the node takes in.
+#[derive(Debug, Clone)]
+pub enum Input {
+    /// `/motion/status`.
+    MotionStatus(MotionStatus),
+    /// `/supervisor/action`.
+    Action(ActionCommand),
+    /// `/speech_command`.
+    Speech(RosString),
+    /// `/human/gesture`.
+    Gesture(Gesture),
+    /// `/lwr/world`.
+    World(WorldState),
+}
+
+/// Hands every input of `source` to `rm` and ticks it at `tick_rate_hz` (source clock) until
+/// the source ends; after every input or tick, `after(rm, outbox)` publishes what was
+/// produced (the outbox is cleared before the next one). `unix_s` stamps learned data.
+pub fn run_loop<S: InputSource<Input>>(
+    source: &mut S,
+    rm: &mut RobotManagerNode,
+    tick_rate_hz: f64,
+    unix_s: &dyn Fn() -> u64,
+    after: &mut dyn FnMut(&mut RobotManagerNode, &mut Outbox) -> Result<()>,
+) -> Result<()> {
+    let period = 1.0 / tick_rate_hz;
+    let mut next_tick = f64::NEG_INFINITY;
+    let mut out = Outbox::default();
+    let mut told_world = false;
+    loop {
+        let event = source.next(next_tick.max(source.now_s()));
+        let stamp = Stamp { t: source.now_s(), unix_s: unix_s() };
+        out.clear();
+        match event {
+            Event::End => break,
+            Event::Input(Input::MotionStatus(m)) => rm.on_motion_status(&m, stamp, &mut out),
+            Event::Input(Input::Action(m)) => rm.on_action(&m, stamp, &mut out),
+            Event::Input(Input::Speech(m)) => {
+                tracing::info!("speech: {:?}", cowork_ros::quote(&m.data));
+                rm.on_speech(&m, stamp, &mut out);
+            }
+            Event::Input(Input::Gesture(m)) => rm.on_gesture(&m, stamp, &mut out),
+            Event::Input(Input::World(m)) => {
+                if !told_world {
+                    told_world = true;
+                    tracing::info!("first {} report: {} objects", topics::WORLD.name, m.objects.len());
+                }
+                rm.on_world(&m, stamp, &mut out);
+            }
+            Event::Deadline => {}
+        }
+        // Ticks at the rate, and again at once when the clock went back (a new simulation).
+        if stamp.t >= next_tick || stamp.t + 2.0 * period < next_tick {
+            next_tick = stamp.t + period;
+            rm.tick(stamp, &mut out);
+        }
+        rm.take_warnings(&mut out.warnings);
+        after(rm, &mut out)?;
+    }
+    Ok(())
 }
 
 /// Wall clock, s since the Unix epoch.
@@ -34,34 +85,27 @@ pub fn unix_s() -> u64 {
 
 /// Runs the node until Ctrl-C, `options.stop` or `options.duration_s`; returns it (with its
 /// database) for tests.
-pub fn run(mut node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, options: &RunOptions) -> Result<RobotManagerNode> {
-    let world = node.subscription::<WorldState>(topics::WORLD, &qos::reliable_depth(100))?;
-    let speech = node.subscription::<RosString>(topics::SPEECH, &qos::reliable())?;
-    let actions = node.subscription::<ActionCommand>(topics::ACTION, &qos::reliable())?;
-    let status = node.subscription::<MotionStatus>(topics::MOTION_STATUS, &qos::reliable_depth(10))?;
-    let gestures = node.subscription::<Gesture>(topics::GESTURE, &qos::reliable())?;
-    let motion_pub = node.publisher::<MotionCommand>(topics::MOTION_COMMAND, &qos::reliable_depth(10))?;
-    let gripper_pub = node.publisher::<RosString>(topics::GRIPPER, &qos::reliable())?;
-    let robot_pub = node.publisher::<RobotStream>(topics::ROBOT_STREAM, &qos::reliable_depth(100))?;
-    let objects_pub = node.publisher::<ObjectStream>(topics::OBJECT_STREAM, &qos::reliable())?;
-    let manipulated_pub = node.publisher::<ObjectStream>(topics::MANIPULATED, &qos::reliable_depth(100))?;
+pub fn run(node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, options: &RunOptions) -> Result<RobotManagerNode> {
+    let mut source = DdsSource::new(node, options.start())?;
+    // Controller status and supervisor commands first, then the world that followed them.
+    source.add(&topics::MOTION_STATUS, Input::MotionStatus)?;
+    source.add(&topics::SUPERVISOR_ACTION, Input::Action)?;
+    source.add(&topics::SPEECH_COMMAND, Input::Speech)?;
+    source.add(&topics::GESTURE, Input::Gesture)?;
+    source.add(&topics::WORLD, Input::World)?;
+    let motion_pub = source.node().advertise(&topics::MOTION_COMMAND)?;
+    let gripper_pub = source.node().advertise(&topics::GRIPPER_COMMAND)?;
+    let robot_pub = source.node().advertise(&topics::ROBOT_STREAM)?;
+    let objects_pub = source.node().advertise(&topics::OBJECT_STREAM)?;
+    let manipulated_pub = source.node().advertise(&topics::MANIPULATED_OBJECTS)?;
+    let mut warnings = Warnings::new(rm.params().warning_period_s);
     tracing::info!(
         "robot_manager running: {} primitives in {}, waiting for {}",
         rm.manager().database().primitives.len(),
         rm.database_path().display(),
-        topics::WORLD
+        topics::WORLD.name
     );
-    let started = Instant::now();
-    let stop_requested = || {
-        cowork_ros::shutdown::requested()
-            || options.stop.as_ref().is_some_and(|s| s.load(Ordering::SeqCst))
-            || options.duration_s.is_some_and(|d| started.elapsed().as_secs_f64() >= d)
-    };
-    let mut out = Outbox::default();
-    let period = 1.0 / tick_rate_hz;
-    let mut next_tick = 0.0f64;
     let mut save_retry: Option<Instant> = None;
-    let mut told_world = false;
     let (save_tx, save_rx) = std::sync::mpsc::channel::<cowork_manager::Database>();
     let (done_tx, done_rx) = std::sync::mpsc::channel::<Result<usize, String>>();
     let saver = {
@@ -88,57 +132,21 @@ pub fn run(mut node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, optio
             tracing::error!("cannot save the primitive database (retrying every second): {e}");
         }
     };
-    while !stop_requested() {
-        let stamp = Stamp { t: node.now().to_secs_f64(), unix_s: unix_s() };
-        out.clear();
-        let mut any = false;
-        // Controller status and supervisor commands first, then the world that followed them.
-        while let Some(m) = status.take() {
-            rm.on_motion_status(&m, stamp, &mut out);
-            any = true;
-        }
-        while let Some(m) = actions.take() {
-            rm.on_action(&m, stamp, &mut out);
-            any = true;
-        }
-        while let Some(m) = speech.take() {
-            tracing::info!("speech: {:?}", m.data);
-            rm.on_speech(&m, stamp, &mut out);
-            any = true;
-        }
-        while let Some(m) = gestures.take() {
-            rm.on_gesture(&m, stamp, &mut out);
-            any = true;
-        }
-        while let Some(m) = world.take() {
-            if !told_world {
-                told_world = true;
-                tracing::info!("first {} report: {} objects", topics::WORLD, m.objects.len());
-            }
-            rm.on_world(&m, stamp, &mut out);
-            any = true;
-        }
-        if stamp.t >= next_tick || stamp.t + 2.0 * period < next_tick {
-            next_tick = stamp.t + period;
-            rm.tick(stamp, &mut out);
-        }
-        for m in out.motion.drain(..) {
-            motion_pub.publish(m)?;
-        }
-        for m in out.gripper.drain(..) {
-            gripper_pub.publish(m)?;
-        }
-        for m in out.robot_stream.drain(..) {
-            robot_pub.publish(m)?;
-        }
-        for m in out.object_stream.drain(..) {
-            objects_pub.publish(m)?;
-        }
-        for m in out.manipulated.drain(..) {
-            manipulated_pub.publish(m)?;
+    run_loop(&mut source, &mut rm, tick_rate_hz, &unix_s, &mut |rm, out| {
+        let now = cowork_ros::monotonic_s();
+        let sent = out
+            .motion
+            .drain(..)
+            .map(|m| motion_pub.send(m))
+            .chain(out.gripper.drain(..).map(|m| gripper_pub.send(m)))
+            .chain(out.robot_stream.drain(..).map(|m| robot_pub.send(m)))
+            .chain(out.object_stream.drain(..).map(|m| objects_pub.send(m)))
+            .chain(out.manipulated.drain(..).map(|m| manipulated_pub.send(m)));
+        for w in sent.flatten().chain(out.warnings.drain(..)).collect::<Vec<_>>() {
+            warnings.warn(now, &w);
         }
         while let Ok(r) = done_rx.try_recv() {
-            report(&mut rm, r, &mut save_retry);
+            report(rm, r, &mut save_retry);
         }
         if rm.database_dirty() && save_retry.is_none_or(|t| t.elapsed() >= Duration::from_secs(1)) {
             save_retry = None;
@@ -148,10 +156,8 @@ pub fn run(mut node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, optio
                 anyhow::bail!("the primitive database saver stopped");
             }
         }
-        if !any {
-            std::thread::sleep(Duration::from_micros(500));
-        }
-    }
+        Ok(())
+    })?;
     // Let the saver finish what it was given, then save what is still unsaved here.
     drop(save_tx);
     if saver.join().is_err() {

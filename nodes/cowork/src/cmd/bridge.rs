@@ -21,7 +21,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
 use cowork_ros::raw::RawSubscription;
-use cowork_ros::{NodeConfig, RateLimiter, RosNode, shutdown};
+use cowork_ros::{NodeConfig, RosNode, Warnings, shutdown};
 use foxglove::websocket::{Capability, ChannelView, Client, ServerListener};
 use foxglove::{ChannelId, Context, PartialMetadata, RawChannel, Schema, WebSocketServer};
 
@@ -167,7 +167,7 @@ pub fn run(args: &BridgeArgs) -> Result<()> {
     let named: BTreeSet<String> = args.topics.iter().cloned().collect();
     let mut served: BTreeMap<String, Served> = BTreeMap::new();
     let mut skipped: BTreeSet<String> = BTreeSet::new();
-    let mut warn = RateLimiter::new(10.0);
+    let mut warn = Warnings::new(10.0);
     let start = Instant::now();
     let end = args.duration.map(|d| start + cowork_ros::duration_s(d));
     let interval = cowork_ros::duration_s(args.discovery_interval);
@@ -189,7 +189,7 @@ pub fn run(args: &BridgeArgs) -> Result<()> {
                 got += 1;
                 // Foxglove's `cdr` decoder reads the encapsulation header: plain CDR only.
                 if !matches!(sample.data.get(..2), Some([0, 0] | [0, 1])) {
-                    warn.warn(topic, &format!("{topic}: a sample without a plain CDR encapsulation header was not forwarded"));
+                    warn.warn_text(cowork_ros::monotonic_s(), topic, &format!("{topic}: a sample without a plain CDR encapsulation header was not forwarded"));
                     continue;
                 }
                 let log_time_ns = if args.use_sim_time && node.clock_started() {
@@ -292,15 +292,8 @@ fn discover(
 mod tests {
     use super::*;
 
-    /// Topics for viewers only (not in the bag checks' graph table), with their types.
-    const VIEWER_TOPICS: &[(&str, &str)] = &[
-        ("/robot_description", "std_msgs/msg/String"),
-        ("/fded/markers", "visualization_msgs/msg/MarkerArray"),
-        ("/human/markers", "visualization_msgs/msg/MarkerArray"),
-    ];
-
-    fn topic_type(topic: &str) -> Option<&'static str> {
-        cowork_bag::graph_topic_type(topic).or_else(|| VIEWER_TOPICS.iter().find(|(t, _)| *t == topic).map(|&(_, ty)| ty))
+    fn topic_type(topic: &str) -> Option<String> {
+        cowork_bag::graph_topic_type(topic)
     }
 
     fn leaves(node: &serde_json::Value, out: &mut Vec<String>) {

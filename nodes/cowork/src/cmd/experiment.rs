@@ -22,6 +22,7 @@ use cowork_msgs::msg::{
     Gesture, HumanState, LinkDistances, MotionCommand, MotionStatus, Skeleton, WorldState,
 };
 use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::topics::{self, Delivery};
 use cowork_msgs::std_msgs::{Float64MultiArray, String as RosString};
 use cowork_people::MessageMeta;
 use cowork_robot::RobotModel;
@@ -482,19 +483,19 @@ fn run_trial(
         },
     )?;
     let inputs = Inputs {
-        joints: node.subscription("/joint_states", &qos::best_effort_depth(2000))?,
-        world: node.subscription("/lwr/world", &qos::reliable_depth(100))?,
-        status: node.subscription("/motion/status", &qos::reliable_depth(10))?,
-        distances: node.subscription("/fded/distances", &qos::reliable_depth(100))?,
-        human: node.subscription("/human/state", &qos::reliable_depth(100))?,
-        gestures: node.subscription("/human/gesture", &qos::reliable_depth(100))?,
+        joints: node.subscribe(&topics::JOINT_STATES.reading(Delivery::BestEffort { depth: 2000 }))?,
+        world: node.subscribe(&topics::WORLD)?,
+        status: node.subscribe(&topics::MOTION_STATUS)?,
+        distances: node.subscribe(&topics::FDED_DISTANCES.reading(Delivery::Reliable { depth: 100 }))?,
+        human: node.subscribe(&topics::HUMAN_STATE.reading(Delivery::Reliable { depth: 100 }))?,
+        gestures: node.subscribe(&topics::GESTURE.reading(Delivery::Reliable { depth: 100 }))?,
         commands: node
-            .subscription("/lwr/joint_velocity_command", &qos::best_effort_depth(2000))?,
+            .subscribe(&topics::JOINT_VELOCITY_COMMAND.reading(Delivery::BestEffort { depth: 2000 }))?,
     };
     let motion_pub =
-        node.publisher::<MotionCommand>("/motion/command", &qos::reliable_depth(10))?;
-    let gripper_pub = node.publisher::<RosString>("/lwr/gripper_command", &qos::reliable())?;
-    let skeleton_pub = node.publisher::<Skeleton>("/human/skeleton", &qos::reliable_depth(50))?;
+        node.advertise(&topics::MOTION_COMMAND)?;
+    let gripper_pub = node.advertise(&topics::GRIPPER_COMMAND)?;
+    let skeleton_pub = node.advertise(&topics::SKELETON)?;
 
     let bag = args.record.as_ref().map(|d| d.join(format!("{tag}.mcap")));
     let started = (|| -> Result<()> {

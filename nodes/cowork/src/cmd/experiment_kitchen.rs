@@ -36,6 +36,7 @@ use anyhow::{Context, Result, bail};
 use cowork_graph::Graph;
 use cowork_msgs::msg::{ActionCommand, LinkDistances, ObjectStream, RobotStream, WorldObject, WorldState};
 use cowork_msgs::std_msgs::String as RosString;
+use cowork_msgs::topics::{self, Delivery};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use cowork_ros::{NodeConfig, RosNode, qos, shutdown};
 use cowork_sim::Scene;
@@ -680,13 +681,13 @@ fn execute(
     let dur = format!("{wall_limit:.0}");
     let s = |p: &Path| p.display().to_string();
     let mut node = RosNode::new("cowork_experiment", &NodeConfig { use_sim_time: true, domain_id: Some(domain), ..NodeConfig::default() })?;
-    let world = node.subscription::<WorldState>("/lwr/world", &qos::reliable_depth(100))?;
-    let robot = node.subscription::<RobotStream>("/robot_stream", &qos::reliable_depth(100))?;
-    let distances = node.subscription::<LinkDistances>("/fded/distances", &qos::reliable())?;
-    let object_stream = node.subscription::<ObjectStream>("/object_stream", &qos::reliable_depth(100))?;
-    let supervisor_actions = node.subscription::<ActionCommand>("/supervisor/action", &qos::reliable_depth(100))?;
-    let place = node.publisher::<WorldObject>("/lwr/place_object", &qos::reliable_depth(100))?;
-    let speech = node.publisher::<RosString>("/speech_command", &qos::reliable())?;
+    let world = node.subscribe(&topics::WORLD)?;
+    let robot = node.subscribe(&topics::ROBOT_STREAM)?;
+    let distances = node.subscribe(&topics::FDED_DISTANCES)?;
+    let object_stream = node.subscribe(&topics::OBJECT_STREAM.reading(Delivery::Reliable { depth: 100 }))?;
+    let supervisor_actions = node.subscribe(&topics::SUPERVISOR_ACTION.reading(Delivery::Reliable { depth: 100 }))?;
+    let place = node.advertise(&topics::PLACE_OBJECT)?;
+    let speech = node.advertise(&topics::SPEECH_COMMAND)?;
     let mut person = kitchen.cooperative.then(Person::default);
     // Bottle out of the workspace (the manager says so), then the next action command.
     let mut t_gone: Option<f64> = None;

@@ -240,7 +240,7 @@ fn learn(a: &LearnArgs) -> Result<()> {
     let reader = BagReader::open(&a.bag).with_context(|| format!("cannot open {}", a.bag.display()))?;
     for m in reader.messages() {
         let m = m.with_context(|| format!("reading {}", a.bag.display()))?;
-        if &*m.topic == "/speech_command" {
+        if &*m.topic == cowork_msgs::topics::SPEECH_COMMAND.name {
             let s: RosString = m.decode().with_context(|| format!("{}: /speech_command", a.bag.display()))?;
             speech.push((i64::try_from(m.log_time_ns).unwrap_or(i64::MAX), s.data));
         }

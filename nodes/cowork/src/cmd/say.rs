@@ -41,7 +41,7 @@ pub fn run(args: SayArgs) -> Result<()> {
         bail!("--wait {}: must be a non-negative number of seconds", args.wait);
     }
     let mut node = RosNode::new(&format!("cowork_say_{}", std::process::id()), &NodeConfig::default())?;
-    let publisher = node.publisher::<RosString>("/speech_command", &qos::reliable())?;
+    let publisher = node.advertise(&cowork_msgs::topics::SPEECH_COMMAND)?;
     let deadline = Instant::now() + cowork_ros::duration_s(args.wait);
     while publisher.subscription_count(&node) == 0 && Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(20));

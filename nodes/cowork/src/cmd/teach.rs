@@ -15,6 +15,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use cowork_graph::{FeedSummary, Graph, TeachingFeed};
 use cowork_msgs::msg::{ActionSegment, RobotStream, WorkingMemory};
+use cowork_msgs::topics;
 use cowork_ros::{NodeConfig, RosNode, qos};
 use cowork_supervisor::{Ltm, Supervisor, SupervisorConfig};
 
@@ -273,8 +274,8 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         "cowork_teach",
         &NodeConfig { domain_id: Some(s.domain), use_sim_time: true, ..NodeConfig::default() },
     )?;
-    let robot = node.subscription::<RobotStream>("/robot_stream", &qos::reliable_depth(100))?;
-    let wm = node.subscription::<WorkingMemory>("/supervisor/working_memory", &qos::reliable_depth(10))?;
+    let robot = node.subscribe(&topics::ROBOT_STREAM)?;
+    let wm = node.subscribe(&topics::WORKING_MEMORY)?;
     let feed = TeachingFeed::from_bags(&mut node, &s.bags)?;
     let bag_s: Vec<f64> = feed.bags().iter().map(|b| b.1).collect();
     let demonstration_s = bag_s.iter().sum();

@@ -6,37 +6,10 @@ use cowork_msgs::type_name_matches;
 
 use crate::{BagError, RawMessage, Result, check_image};
 
-/// The topics of the cowork graph with the ROS type each must carry (SPEC, "Graph, topics,
-/// messages").
-pub const GRAPH_TOPICS: &[(&str, &str)] = &[
-    ("/clock", "rosgraph_msgs/msg/Clock"),
-    ("/joint_states", "sensor_msgs/msg/JointState"),
-    ("/tf", "tf2_msgs/msg/TFMessage"),
-    ("/tf_static", "tf2_msgs/msg/TFMessage"),
-    ("/lwr/joint_velocity_command", "std_msgs/msg/Float64MultiArray"),
-    ("/lwr/gripper_command", "std_msgs/msg/String"),
-    ("/external_wrench", "geometry_msgs/msg/WrenchStamped"),
-    ("/camera/depth/image_raw", "sensor_msgs/msg/Image"),
-    ("/camera/depth/camera_info", "sensor_msgs/msg/CameraInfo"),
-    ("/human/skeleton", "cowork_msgs/msg/Skeleton"),
-    ("/human/state", "cowork_msgs/msg/HumanState"),
-    ("/human/gesture", "cowork_msgs/msg/Gesture"),
-    ("/fded/distances", "cowork_msgs/msg/LinkDistances"),
-    ("/motion/command", "cowork_msgs/msg/MotionCommand"),
-    ("/motion/status", "cowork_msgs/msg/MotionStatus"),
-    ("/robot_stream", "cowork_msgs/msg/RobotStream"),
-    ("/object_stream", "cowork_msgs/msg/ObjectStream"),
-    ("/supervisor/action", "cowork_msgs/msg/ActionCommand"),
-    ("/supervisor/working_memory", "cowork_msgs/msg/WorkingMemory"),
-    ("/speech_command", "std_msgs/msg/String"),
-];
-
-/// The type the cowork graph expects on `topic`, if it is one of [`GRAPH_TOPICS`].
-pub fn graph_topic_type(topic: &str) -> Option<&'static str> {
-    GRAPH_TOPICS
-        .iter()
-        .find(|(t, _)| *t == topic)
-        .map(|&(_, ty)| ty)
+/// The type the cowork graph expects on `topic`, if it is one of the graph's topics
+/// ([`cowork_msgs::topics::all`], SPEC "Graph, topics, messages").
+pub fn graph_topic_type(topic: &str) -> Option<String> {
+    cowork_msgs::topics::all().into_iter().find(|(t, _, _)| *t == topic).map(|(_, ty, _)| ty)
 }
 
 /// Whether `a` and `b` name the same ROS type (`pkg/msg/Name`, `pkg/Name` or DDS spelling).
@@ -59,7 +32,7 @@ pub enum Verdict {
 
 /// Checks a message before replay:
 ///
-/// * on a topic of the graph ([`GRAPH_TOPICS`]) it must carry the graph's type
+/// * on a topic of the graph ([`graph_topic_type`]) it must carry the graph's type
 ///   ([`BagError::TopicType`]);
 /// * for a type of `cowork_msgs`: message encoding `cdr`, the bag's schema has our fields, and
 ///   the payload decodes; a `sensor_msgs/Image` must also pass [`check_image`];
@@ -68,11 +41,11 @@ pub enum Verdict {
 /// Cost: one decode of the payload (a copy of an image's data).
 pub fn check_message(message: &RawMessage) -> Result<Verdict> {
     if let Some(expected) = graph_topic_type(&message.topic)
-        && !same_type(expected, &message.type_name)
+        && !same_type(&expected, &message.type_name)
     {
         return Err(BagError::TopicType {
             topic: message.topic.to_string(),
-            expected: expected.to_owned(),
+            expected,
             actual: message.type_name.to_string(),
         });
     }
@@ -134,10 +107,10 @@ mod tests {
 
     #[test]
     fn graph_topics_name_known_types() {
-        for (topic, ty) in GRAPH_TOPICS {
-            assert!(cowork_msgs::find_type(ty).is_some(), "{topic}: {ty} unknown");
+        for (topic, ty, _) in cowork_msgs::topics::all() {
+            assert!(cowork_msgs::find_type(&ty).is_some(), "{topic}: {ty} unknown");
         }
-        assert_eq!(graph_topic_type("/joint_states"), Some("sensor_msgs/msg/JointState"));
+        assert_eq!(graph_topic_type("/joint_states").as_deref(), Some("sensor_msgs/msg/JointState"));
         assert_eq!(graph_topic_type("/nope"), None);
         assert!(same_type("sensor_msgs/msg/Image", "sensor_msgs/Image"));
         assert!(!same_type("sensor_msgs/msg/JointState", "std_msgs/msg/String"));

@@ -50,7 +50,7 @@ mod rosbag2;
 pub mod schema;
 mod write;
 
-pub use check::{GRAPH_TOPICS, TopicCheck, Verdict, check_bag, check_message, graph_topic_type};
+pub use check::{TopicCheck, Verdict, check_bag, check_message, graph_topic_type};
 pub use error::{BagError, Result};
 pub use image::{bytes_per_pixel, check_image};
 pub use read::{BagInfo, BagReader, ChannelInfo, Messages, RawMessage, TopicInfo, storage_file};

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use crate::{BagError, BagReader, Messages, RawMessage, Result};
 
 /// Topic of the simulated clock.
-pub const CLOCK_TOPIC: &str = "/clock";
+pub const CLOCK_TOPIC: &str = cowork_msgs::topics::CLOCK.name;
 
 /// The last part of a wait that [`wait_until`] spends spinning instead of sleeping: an OS sleep
 /// on an idle machine overshoots by 50–100 µs. Kept short on purpose: on a loaded machine a

@@ -48,6 +48,7 @@
 //! ```
 
 pub mod baseline;
+#[cfg(feature = "bench")]
 pub mod bench;
 mod cam;
 mod error;
@@ -55,8 +56,8 @@ pub mod gpu;
 pub mod layout;
 mod params;
 mod pipeline;
-pub mod raster;
-pub mod stages;
+mod raster;
+mod stages;
 
 pub use cam::Cam;
 pub use error::{Error, Result};

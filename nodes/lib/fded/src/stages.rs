@@ -74,6 +74,8 @@ pub struct Objects<'a> {
     pub cap: &'a [f32],
 }
 
+// `of` and `is_empty` serve the benchmark scenes (`bench` feature) only.
+#[cfg_attr(not(feature = "bench"), allow(dead_code))]
 impl<'a> Objects<'a> {
     /// The object lattice of `buf`, points `range`.
     pub fn of(buf: &'a Buffers, range: std::ops::Range<usize>) -> Self {

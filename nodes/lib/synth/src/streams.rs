@@ -16,28 +16,30 @@ use nalgebra::Isometry3;
 
 use crate::Result;
 
-/// Topic names written by the synthesiser (the graph's names, SPEC "Graph, topics, messages").
+/// Topic names written by the synthesiser: the graph's names, from their one definition in
+/// [`cowork_msgs::topics`].
 pub mod topics {
+    use cowork_msgs::topics as graph;
     /// rosgraph_msgs/Clock.
-    pub const CLOCK: &str = "/clock";
+    pub const CLOCK: &str = graph::CLOCK.name;
     /// sensor_msgs/JointState.
-    pub const JOINT_STATES: &str = "/joint_states";
+    pub const JOINT_STATES: &str = graph::JOINT_STATES.name;
     /// tf2_msgs/TFMessage: links and objects.
-    pub const TF: &str = "/tf";
+    pub const TF: &str = graph::TF.name;
     /// tf2_msgs/TFMessage: the camera's optical frame, once at the start.
-    pub const TF_STATIC: &str = "/tf_static";
+    pub const TF_STATIC: &str = graph::TF_STATIC.name;
     /// sensor_msgs/Image.
-    pub const DEPTH_IMAGE: &str = "/camera/depth/image_raw";
+    pub const DEPTH_IMAGE: &str = graph::DEPTH_IMAGE.name;
     /// sensor_msgs/CameraInfo.
-    pub const CAMERA_INFO: &str = "/camera/depth/camera_info";
+    pub const CAMERA_INFO: &str = graph::DEPTH_CAMERA_INFO.name;
     /// cowork_msgs/Skeleton.
-    pub const SKELETON: &str = "/human/skeleton";
+    pub const SKELETON: &str = graph::SKELETON.name;
     /// geometry_msgs/WrenchStamped.
-    pub const EXTERNAL_WRENCH: &str = "/external_wrench";
+    pub const EXTERNAL_WRENCH: &str = graph::EXTERNAL_WRENCH.name;
     /// std_msgs/String.
-    pub const SPEECH: &str = "/speech_command";
+    pub const SPEECH: &str = graph::SPEECH_COMMAND.name;
     /// std_msgs/String with a JSON gesture label (see the crate docs).
-    pub const GESTURE_LABEL: &str = "/human/gesture_label";
+    pub const GESTURE_LABEL: &str = graph::GESTURE_LABEL.name;
 }
 
 /// Publication rates of the common streams, Hz of simulated time.

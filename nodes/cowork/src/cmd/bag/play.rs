@@ -164,13 +164,14 @@ pub fn run(args: &PlayArgs) -> Result<PlayStats> {
     Ok(stats)
 }
 
-/// QoS a replayed topic is published with: `/clock` as rclcpp's clock QoS, `/tf_static`
-/// latched, everything else reliable keep-last 100 (a reliable writer matches reliable and
+/// QoS a replayed topic is published with: `/clock` as rclcpp's clock QoS, latched graph
+/// topics (`/tf_static`, `/robot_description`) latched, everything else reliable keep-last 100 (a reliable writer matches reliable and
 /// best-effort readers alike).
 fn publish_qos(topic: &str) -> qos::QosProfile {
-    match topic {
-        CLOCK_TOPIC => qos::clock(),
-        "/tf_static" => qos::latched(),
+    use cowork_msgs::topics::{Delivery, writer_delivery};
+    match writer_delivery(topic) {
+        _ if topic == CLOCK_TOPIC => qos::clock(),
+        Some(Delivery::Latched) => qos::latched(),
         _ => qos::replay(100),
     }
 }

@@ -112,9 +112,10 @@ fn output_paths(output: &std::path::Path) -> Result<(PathBuf, Option<PathBuf>)> 
 
 /// QoS for a topic nobody has offered yet (named on the command line before discovery).
 fn fallback_qos(topic: &str, depth: usize) -> qos::QosProfile {
-    match topic {
-        "/clock" => qos::sensor_data(),
-        "/tf_static" => qos::latched(),
+    use cowork_msgs::topics::{Delivery, writer_delivery};
+    match writer_delivery(topic) {
+        Some(Delivery::Clock) => qos::sensor_data(),
+        Some(Delivery::Latched) => qos::latched(),
         _ => qos::best_effort_depth(depth),
     }
 }
