@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use attentional_supervisor::{Params, RunOptions, SupervisorNode};
+use attentional_supervisor::{Params, SupervisorNode};
 use clap::Parser;
 use cowork_supervisor::{Ltm, Supervisor};
 
@@ -26,22 +26,19 @@ struct Args {
     /// ROS 2 parameter file with an `attentional_supervisor: ros__parameters:` block.
     #[arg(long, default_value = "config/attentional_supervisor.yaml")]
     params: PathBuf,
-    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
-    #[arg(long)]
-    use_sim_time: bool,
-    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
-    #[arg(long)]
-    duration: Option<f64>,
+    #[command(flatten)]
+    node: cowork_ros::NodeArgs,
 }
 
-fn main() -> Result<()> {
-    cowork_ros::init_logging();
+/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
+fn main() -> std::process::ExitCode {
+    cowork_ros::node_main(run)
+}
+
+fn run() -> Result<()> {
     let args = Args::parse();
-    let mut params: Params = cowork_ros::params::load(&args.params, "attentional_supervisor")?;
-    params.use_sim_time |= args.use_sim_time;
-    params
-        .validate(&args.params.display().to_string())
-        .with_context(|| format!("invalid parameters in {}", args.params.display()))?;
+    let (params, place): (Params, _) = args.node.load(&args.params, "attentional_supervisor")?;
+    params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     if let Some(path) = &args.save_ltm {
         // A save killed half-way (kill -9) leaves its temporary file; the LTM itself is intact.
         match cowork_store::remove_orphan_temporaries(path) {
@@ -52,8 +49,8 @@ fn main() -> Result<()> {
     let ltm = Ltm::load(&args.ltm).with_context(|| format!("cannot load the LTM {}", args.ltm.display()))?;
     let supervisor = Supervisor::new(ltm, &args.task, params.attention.clone())
         .with_context(|| format!("cannot allocate task {} from {}", args.task, args.ltm.display()))?;
-    let node = cowork_ros::start_node("attentional_supervisor", params.use_sim_time, args.duration)?;
+    let (node, options) = args.node.start("attentional_supervisor", params.use_sim_time)?;
     let node_state = SupervisorNode::new(supervisor, &params);
-    attentional_supervisor::run(node, node_state, args.save_ltm.as_deref(), &RunOptions::for_duration(args.duration))?;
+    attentional_supervisor::run(node, node_state, args.save_ltm.as_deref(), &options)?;
     Ok(())
 }

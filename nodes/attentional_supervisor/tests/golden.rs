@@ -5,16 +5,13 @@
 //! (`UPDATE_GOLDEN=1` rewrites them). Floats are rounded to 1e-6 so the files do not depend on
 //! the last bit of the arithmetic.
 
-use std::cell::Cell;
 use std::path::PathBuf;
-use std::rc::Rc;
 
 use attentional_supervisor::{Input, Output, Params, RunSummary, SupervisorNode, run_loop};
 use cowork_msgs::msg::{ActionEvent, ActionSegment, ObjectState, ObjectStream, RobotStream};
 use cowork_msgs::std_msgs::String as RosString;
-use cowork_ros::{Event, InputSource};
 use cowork_supervisor::{Ltm, RunConfig, Supervisor, SupervisorConfig, parse_jsonl, runner};
-use cowork_testkit::{ScriptedSource, assert_golden};
+use cowork_testkit::{ScriptedSource, assert_golden, json_line};
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -52,47 +49,15 @@ fn robot(held: Option<&str>, done: &[&str], segments: &[(&str, u8)]) -> Input {
     })
 }
 
-/// The source's clock, readable by the output closure while the loop holds the source.
-struct Clocked<S> {
-    inner: S,
-    now: Rc<Cell<f64>>,
-}
-
-impl<S: InputSource<Input>> InputSource<Input> for Clocked<S> {
-    fn next(&mut self, deadline_s: f64) -> Event<Input> {
-        let e = self.inner.next(deadline_s);
-        self.now.set(self.inner.now_s());
-        e
-    }
-    fn now_s(&self) -> f64 {
-        self.inner.now_s()
-    }
-}
-
-fn round(v: &mut serde_json::Value) {
-    match v {
-        serde_json::Value::Number(n) => {
-            if let Some(f) = n.as_f64().filter(|_| !n.is_i64() && !n.is_u64()) {
-                *v = serde_json::json!((f * 1e6).round() / 1e6);
-            }
-        }
-        serde_json::Value::Array(a) => a.iter_mut().for_each(round),
-        serde_json::Value::Object(o) => o.values_mut().for_each(round),
-        _ => {}
-    }
-}
-
 /// Runs `script` (times in s) through the node loop until `end_s`; returns the JSON lines
 /// (`{"t": node clock, "out": output}`), the outputs and the summary.
 fn play(node: &mut SupervisorNode, script: Vec<(f64, Input)>, end_s: f64) -> (Vec<String>, Vec<Output>, RunSummary) {
-    let now = Rc::new(Cell::new(0.0));
-    let mut source = Clocked { inner: ScriptedSource::new(script, end_s), now: Rc::clone(&now) };
+    let mut source = ScriptedSource::new(script, end_s);
+    let clock = source.clock();
     let mut lines = Vec::new();
     let mut outputs = Vec::new();
     let summary = run_loop(&mut source, node, &mut |o| {
-        let mut v = serde_json::json!({ "t": now.get(), "out": &o });
-        round(&mut v);
-        lines.push(v.to_string());
+        lines.push(json_line(clock.now_s(), &o));
         outputs.push(o);
     });
     (lines, outputs, summary)

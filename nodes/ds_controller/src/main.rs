@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Parser;
 use cowork_robot::RobotModel;
-use ds_controller::{Params, RunOptions};
+use ds_controller::Params;
 
 /// Reactive DS controller (thesis Sec. 5.1.1, 5.1.3) at 1 kHz: goal adaptation, velocity
 /// scaling from `/human/state`, DS modulation and null-space avoidance from `/fded/distances`,
@@ -20,31 +20,24 @@ struct Args {
     /// ROS 2 parameter file with a `ds_controller: ros__parameters:` block.
     #[arg(long, default_value = "config/ds_controller.yaml")]
     params: PathBuf,
-    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
-    #[arg(long)]
-    use_sim_time: bool,
-    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
-    #[arg(long)]
-    duration: Option<f64>,
+    #[command(flatten)]
+    node: cowork_ros::NodeArgs,
 }
 
 /// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
-    cowork_ros::exit_code(run())
+    cowork_ros::node_main(run)
 }
 
 fn run() -> Result<()> {
-    cowork_ros::init_logging();
     let mut args = Args::parse();
     // `config/...` defaults resolve to the bundled config directory from any working directory.
     args.urdf = cowork_ros::config::resolve(&args.urdf);
-    let mut params: Params = cowork_ros::params::load(&args.params, "ds_controller")?;
-    params.use_sim_time |= args.use_sim_time;
-    params
-        .validate(&args.params.display().to_string())
-        .with_context(|| format!("invalid parameters in {}", args.params.display()))?;
+    let (mut params, place): (Params, _) = args.node.load(&args.params, "ds_controller")?;
+    params.use_sim_time |= args.node.use_sim_time;
+    params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     let model = RobotModel::from_urdf_file(&args.urdf)
         .with_context(|| format!("cannot load robot description {}", args.urdf.display()))?;
-    let node = cowork_ros::start_node("ds_controller", params.use_sim_time, args.duration)?;
-    ds_controller::run(node, model, &params, &RunOptions { duration_s: args.duration, stop: None })
+    let (node, options) = args.node.start("ds_controller", params.use_sim_time)?;
+    ds_controller::run(node, model, &params, &options)
 }

@@ -18,7 +18,10 @@ use cowork_robot::RobotModel;
 use cowork_ros::{NodeConfig, RosNode, RunOptions, WaitSet};
 use ds_controller::Params;
 
+// A bench, not a CI test (timings on a shared 2-core machine are noise): run it with
+// `cargo test --release -p ds_controller --test latency_over_dds -- --ignored --nocapture`.
 #[test]
+#[ignore = "latency bench; run with --ignored --nocapture"]
 fn a_refused_command_is_answered_within_milliseconds() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let model = RobotModel::from_urdf_file(root.join("config/robot/lwr4plus.urdf")).expect("URDF");

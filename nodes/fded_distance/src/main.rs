@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use clap::Parser;
 use cowork_robot::RobotModel;
-use fded_distance::{FdedNode, Params, RunOptions};
+use fded_distance::{FdedNode, Params};
 
 /// fDED: per depth frame on `/camera/depth/image_raw`, the distance of every robot link to the
 /// closest obstacle, with points, normal and obstacle velocity, on `/fded/distances`, and
@@ -25,25 +25,18 @@ struct Args {
     /// `fded` or `flacco` (overrides `method` in the parameter file).
     #[arg(long)]
     method: Option<String>,
-    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
-    #[arg(long)]
-    use_sim_time: bool,
-    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
-    #[arg(long)]
-    duration: Option<f64>,
+    #[command(flatten)]
+    node: cowork_ros::NodeArgs,
 }
 
 /// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
-    cowork_ros::exit_code(run())
+    cowork_ros::node_main(run)
 }
 
 fn run() -> Result<()> {
-    cowork_ros::init_logging();
     let args = Args::parse();
-    let place = args.params.display().to_string();
-    let mut params: Params = cowork_ros::params::load(&args.params, "fded_distance")?;
-    params.use_sim_time |= args.use_sim_time;
+    let (mut params, place): (Params, _) = args.node.load(&args.params, "fded_distance")?;
     if let Some(u) = &args.urdf {
         params.urdf = u.display().to_string();
     }
@@ -59,7 +52,7 @@ fn run() -> Result<()> {
         .with_context(|| format!("cannot load robot description {}", params.urdf))?;
     let use_sim_time = params.use_sim_time;
     let fded = FdedNode::new(model, params)?;
-    let node = cowork_ros::start_node("fded_distance", use_sim_time, args.duration)?;
-    fded_distance::run(node, fded, &RunOptions { duration_s: args.duration, stop: None })?;
+    let (node, options) = args.node.start("fded_distance", use_sim_time)?;
+    fded_distance::run(node, fded, &options)?;
     Ok(())
 }

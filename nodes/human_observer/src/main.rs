@@ -6,7 +6,7 @@ use anyhow::{Context, Result};
 use clap::Parser;
 use cowork_observer::GestureModel;
 use cowork_robot::RobotModel;
-use human_observer::{ObserverNode, Params, RunOptions};
+use human_observer::{ObserverNode, Params};
 
 /// Human observer: from `/human/skeleton`, `/joint_states` and `/speech_command`, the state of
 /// the person near the robot on `/human/state` (far / interaction, distance, filtered hand,
@@ -23,25 +23,18 @@ struct Args {
     /// Gesture model (overrides `gestures`; `""` for none).
     #[arg(long)]
     gestures: Option<String>,
-    /// Take time from `/clock` (overrides `use_sim_time: false`).
-    #[arg(long)]
-    use_sim_time: bool,
-    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
-    #[arg(long)]
-    duration: Option<f64>,
+    #[command(flatten)]
+    node: cowork_ros::NodeArgs,
 }
 
 /// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
-    cowork_ros::exit_code(run())
+    cowork_ros::node_main(run)
 }
 
 fn run() -> Result<()> {
-    cowork_ros::init_logging();
     let args = Args::parse();
-    let place = args.params.display().to_string();
-    let mut params: Params = cowork_ros::params::load(&args.params, "human_observer")?;
-    params.use_sim_time |= args.use_sim_time;
+    let (mut params, place): (Params, _) = args.node.load(&args.params, "human_observer")?;
     if let Some(u) = &args.urdf {
         params.urdf = u.display().to_string();
     }
@@ -74,7 +67,7 @@ fn run() -> Result<()> {
     if unusable {
         observer.without_gestures_fail_closed();
     }
-    let node = cowork_ros::start_node("human_observer", use_sim_time, args.duration)?;
-    human_observer::run(node, observer, &RunOptions { duration_s: args.duration, stop: None })?;
+    let (node, options) = args.node.start("human_observer", use_sim_time)?;
+    human_observer::run(node, observer, &options)?;
     Ok(())
 }

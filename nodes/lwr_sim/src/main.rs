@@ -45,11 +45,10 @@ struct Args {
 
 /// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
-    cowork_ros::exit_code(run())
+    cowork_ros::node_main(run)
 }
 
 fn run() -> Result<()> {
-    cowork_ros::init_logging();
     let mut args = Args::parse();
     // `config/...` defaults resolve to the bundled config directory from any working directory.
     args.urdf = cowork_ros::config::resolve(&args.urdf);

@@ -5,9 +5,7 @@
 //! one JSON line, compared with `tests/golden/*.jsonl` (`UPDATE_GOLDEN=1` rewrites them).
 //! Publication rates are lowered so the files stay readable; floats are rounded to 1e-6.
 
-use std::cell::Cell;
 use std::path::PathBuf;
-use std::rc::Rc;
 
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::{Vector3, Wrench as RosWrench, WrenchStamped};
@@ -15,9 +13,8 @@ use cowork_msgs::msg::{Skeleton, WorldObject};
 use cowork_msgs::std_msgs::{Float64MultiArray, Header, String as RosString};
 use cowork_people::{Action, BodySize, MessageMeta, Performer, Stance};
 use cowork_robot::RobotModel;
-use cowork_ros::{Event, InputSource};
 use cowork_sim::{Scene, Simulator};
-use cowork_testkit::{ScriptedSource, assert_golden};
+use cowork_testkit::{ScriptedSource, assert_golden, json_line};
 use lwr_sim::{Input, LwrSim, LwrSimConfig, Output, Pacing, RunSummary, WrenchMode, run_loop};
 
 fn root() -> PathBuf {
@@ -79,46 +76,14 @@ fn skeleton(t: f64) -> Skeleton {
     })
 }
 
-/// The source's clock, readable by the output closure while the loop holds the source.
-struct Clocked<S> {
-    inner: S,
-    now: Rc<Cell<f64>>,
-}
-
-impl<S: InputSource<Input>> InputSource<Input> for Clocked<S> {
-    fn next(&mut self, deadline_s: f64) -> Event<Input> {
-        let e = self.inner.next(deadline_s);
-        self.now.set(self.inner.now_s());
-        e
-    }
-    fn now_s(&self) -> f64 {
-        self.inner.now_s()
-    }
-}
-
-fn round(v: &mut serde_json::Value) {
-    match v {
-        serde_json::Value::Number(n) => {
-            if let Some(f) = n.as_f64().filter(|_| !n.is_i64() && !n.is_u64()) {
-                *v = serde_json::json!((f * 1e6).round() / 1e6);
-            }
-        }
-        serde_json::Value::Array(a) => a.iter_mut().for_each(round),
-        serde_json::Value::Object(o) => o.values_mut().for_each(round),
-        _ => {}
-    }
-}
-
 /// Runs `script` (s) through the loop at real-time pace for `duration_s` simulated seconds;
 /// returns the JSON lines (`{"t": source clock, "out": output}`), the outputs, the summary.
 fn play(lwr: &mut LwrSim, script: Vec<(f64, Input)>, duration_s: f64) -> (Vec<String>, Vec<Output>, RunSummary) {
-    let now = Rc::new(Cell::new(0.0));
-    let mut source = Clocked { inner: ScriptedSource::new(script, 60.0), now: Rc::clone(&now) };
+    let mut source = ScriptedSource::new(script, 60.0);
+    let clock = source.clock();
     let (mut lines, mut outputs) = (Vec::new(), Vec::new());
     let summary = run_loop(&mut source, lwr, Pacing::Rate(1.0), Some(duration_s), &mut |o| {
-        let mut v = serde_json::json!({ "t": now.get(), "out": &o });
-        round(&mut v);
-        lines.push(v.to_string());
+        lines.push(json_line(clock.now_s(), &o));
         outputs.push(o);
     });
     (lines, outputs, summary)

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use robot_manager::{Params, RobotManagerNode, RunOptions};
+use robot_manager::{Params, RobotManagerNode};
 
 /// Robot manager: segments demonstrations into NOA/FOA/gripper primitives while teaching,
 /// executes `/supervisor/action` labels through ds_controller and the gripper, and reports the
@@ -19,20 +19,18 @@ struct Args {
     /// Directory of the primitive database (overrides `database_dir`).
     #[arg(long)]
     database_dir: Option<PathBuf>,
-    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
-    #[arg(long)]
-    use_sim_time: bool,
-    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
-    #[arg(long)]
-    duration: Option<f64>,
+    #[command(flatten)]
+    node: cowork_ros::NodeArgs,
 }
 
-fn main() -> Result<()> {
-    cowork_ros::init_logging();
+/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
+fn main() -> std::process::ExitCode {
+    cowork_ros::node_main(run)
+}
+
+fn run() -> Result<()> {
     let args = Args::parse();
-    let place = args.params.display().to_string();
-    let mut params: Params = cowork_ros::params::load(&args.params, "robot_manager")?;
-    params.use_sim_time |= args.use_sim_time;
+    let (mut params, place): (Params, _) = args.node.load(&args.params, "robot_manager")?;
     if let Some(d) = &args.database_dir {
         params.database_dir = d.display().to_string();
     }
@@ -43,7 +41,7 @@ fn main() -> Result<()> {
     if let Some(p) = problem {
         tracing::error!("{p}");
     }
-    let node = cowork_ros::start_node("robot_manager", use_sim_time, args.duration)?;
-    robot_manager::run(node, rm, tick, &RunOptions { duration_s: args.duration, stop: None })?;
+    let (node, options) = args.node.start("robot_manager", use_sim_time)?;
+    robot_manager::run(node, rm, tick, &options)?;
     Ok(())
 }

@@ -349,7 +349,7 @@ mod tests {
         for p in &paths {
             let (topic, field) = p.split_once('.').map_or((p.as_str(), None), |(t, f)| (t, Some(f)));
             let ty = topic_type(topic).unwrap_or_else(|| panic!("{topic}: not a topic of the graph"));
-            let info = cowork_msgs::find_type(ty).unwrap_or_else(|| panic!("{topic}: {ty} has no schema"));
+            let info = cowork_msgs::find_type(&ty).unwrap_or_else(|| panic!("{topic}: {ty} has no schema"));
             if let Some(field) = field {
                 let def = (info.definition)();
                 let top = def.split("\n=").next().unwrap_or("");

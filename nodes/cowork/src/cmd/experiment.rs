@@ -19,14 +19,14 @@ use cowork_experiment::{
 };
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{
-    Gesture, HumanState, LinkDistances, MotionCommand, MotionStatus, Skeleton, WorldState,
+    Gesture, HumanState, LinkDistances, MotionStatus, Skeleton, WorldState,
 };
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::topics::{self, Delivery};
 use cowork_msgs::std_msgs::{Float64MultiArray, String as RosString};
 use cowork_people::MessageMeta;
 use cowork_robot::RobotModel;
-use cowork_ros::{NodeConfig, RosNode, qos, shutdown};
+use cowork_ros::{NodeConfig, RosNode, shutdown};
 use indicatif::{ProgressBar, ProgressStyle};
 
 /// Arguments of `cowork experiment`.

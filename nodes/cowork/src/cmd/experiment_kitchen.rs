@@ -34,11 +34,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use cowork_graph::Graph;
-use cowork_msgs::msg::{ActionCommand, LinkDistances, ObjectStream, RobotStream, WorldObject, WorldState};
+use cowork_msgs::msg::{WorldObject, WorldState};
 use cowork_msgs::std_msgs::String as RosString;
 use cowork_msgs::topics::{self, Delivery};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
-use cowork_ros::{NodeConfig, RosNode, qos, shutdown};
+use cowork_ros::{NodeConfig, RosNode, shutdown};
 use cowork_sim::Scene;
 use cowork_synth::{Scenario, SynthOptions};
 use serde::Serialize;

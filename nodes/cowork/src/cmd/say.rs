@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use clap::Args;
 use cowork_msgs::std_msgs::String as RosString;
-use cowork_ros::{NodeConfig, RosNode, qos};
+use cowork_ros::{NodeConfig, RosNode};
 
 /// Speech vocabulary of the graph (thesis Sec. 5.2.3); `human <subtask>` takes any subtask.
 pub const VOCABULARY: &[&str] = &["teach", "done", "stop", "repeat", "gripper open", "gripper close", "human <subtask>"];

@@ -14,9 +14,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use cowork_graph::{FeedSummary, Graph, TeachingFeed};
-use cowork_msgs::msg::{ActionSegment, RobotStream, WorkingMemory};
+use cowork_msgs::msg::{ActionSegment, WorkingMemory};
 use cowork_msgs::topics;
-use cowork_ros::{NodeConfig, RosNode, qos};
+use cowork_ros::{NodeConfig, RosNode};
 use cowork_supervisor::{Ltm, Supervisor, SupervisorConfig};
 
 /// Arguments of `cowork teach`.

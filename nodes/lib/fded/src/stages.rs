@@ -74,27 +74,10 @@ pub struct Objects<'a> {
     pub cap: &'a [f32],
 }
 
-// `of` and `is_empty` serve the benchmark scenes (`bench` feature) only.
-#[cfg_attr(not(feature = "bench"), allow(dead_code))]
-impl<'a> Objects<'a> {
-    /// The object lattice of `buf`, points `range`.
-    pub fn of(buf: &'a Buffers, range: std::ops::Range<usize>) -> Self {
-        Self {
-            ray_x: &buf.obj_ray_x[range.clone()],
-            ray_y: &buf.obj_ray_y[range.clone()],
-            depth: &buf.obj_depth[range.clone()],
-            cap: &buf.obj_cap[range],
-        }
-    }
-
+impl Objects<'_> {
     /// Number of points.
     pub fn len(&self) -> usize {
         self.depth.len()
-    }
-
-    /// `true` when there are none.
-    pub fn is_empty(&self) -> bool {
-        self.depth.is_empty()
     }
 }
 

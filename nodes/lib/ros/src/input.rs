@@ -156,9 +156,16 @@ impl<I: 'static> InputSource<I> for DdsSource<I> {
             if self.clock_started() && now >= deadline_s {
                 return Event::Deadline;
             }
-            // Node time runs at about wall-clock rate (or slower): waiting the node-time gap
-            // in wall time never oversleeps a deadline by more than the simulation's lag.
-            let gap = if self.clock_started() { deadline_s - now } else { 0.1 };
+            // Wall time: the node-time gap. Simulated time may run faster than the wall
+            // clock (a simulator at --max), so there the wait is at most 1 ms of wall time
+            // (one `/clock` period of lwr_sim at real time) and the deadline is checked again.
+            let gap = if !self.clock_started() {
+                0.1
+            } else if self.node.uses_sim_time() {
+                (deadline_s - now).min(1e-3)
+            } else {
+                deadline_s - now
+            };
             self.waits.wait(crate::duration_s(gap));
         }
     }

@@ -72,6 +72,39 @@ pub fn start_node(name: &str, use_sim_time: bool, duration_s: Option<f64>) -> an
     RosNode::new(name, &NodeConfig { use_sim_time, ..NodeConfig::default() })
 }
 
+/// The command-line options every node binary shares; flatten them into its clap `Args`
+/// (`#[command(flatten)] node: cowork_ros::NodeArgs`).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct NodeArgs {
+    /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
+    #[arg(long)]
+    pub use_sim_time: bool,
+    /// Stop after this many wall-clock seconds (runs until Ctrl-C otherwise).
+    #[arg(long)]
+    pub duration: Option<f64>,
+}
+
+impl NodeArgs {
+    /// Loads the `node: ros__parameters:` block of `path` ([`params::load`]); returns it with
+    /// the place to name in errors (the file's path).
+    pub fn load<T: serde::de::DeserializeOwned>(&self, path: &std::path::Path, node: &str) -> anyhow::Result<(T, String)> {
+        Ok((params::load(path, node)?, path.display().to_string()))
+    }
+
+    /// Joins the graph as `name` ([`start_node`]): sim time when the parameter file or
+    /// `--use-sim-time` asks for it; returns the node and the [`RunOptions`] of `--duration`.
+    pub fn start(&self, name: &str, use_sim_time: bool) -> anyhow::Result<(RosNode, RunOptions)> {
+        let node = start_node(name, use_sim_time || self.use_sim_time, self.duration)?;
+        Ok((node, RunOptions::for_duration(self.duration)))
+    }
+}
+
+/// A node binary's `main`: logging to stderr, then `run`, ending as [`exit_code`] says.
+pub fn node_main(run: impl FnOnce() -> anyhow::Result<()>) -> std::process::ExitCode {
+    init_logging();
+    exit_code(run())
+}
+
 /// `s` seconds as a [`std::time::Duration`] that never panics: NaN and negative values give
 /// zero, values beyond 100 years (or infinite) give 100 years. `Duration::from_secs_f64`
 /// panics on all of these, and a finite but extreme parameter (`1e20 s`, `--rate 1e-300`)
@@ -161,9 +194,6 @@ pub struct Warnings {
     last: std::collections::HashMap<String, (f64, u64)>,
     logged: u64,
 }
-
-/// The old name of [`Warnings`].
-pub type RateLimiter = Warnings;
 
 impl Warnings {
     /// Kinds remembered at most.

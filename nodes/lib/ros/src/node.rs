@@ -254,6 +254,11 @@ impl RosNode {
         }
     }
 
+    /// Whether the node's time is `/clock` time (`use_sim_time`).
+    pub fn uses_sim_time(&self) -> bool {
+        self.sim_time_ns.is_some()
+    }
+
     /// Whether `/clock` has ticked yet (always true without `use_sim_time`).
     pub fn clock_started(&self) -> bool {
         self.sim_time_ns.as_ref().is_none_or(|t| t.load(Ordering::Acquire) >= 0)

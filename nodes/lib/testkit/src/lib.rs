@@ -59,6 +59,20 @@ pub struct ScriptedSource<I> {
     script: std::collections::VecDeque<(f64, I)>,
     now_s: f64,
     end_s: f64,
+    /// `now_s` as f64 bits, for [`ScriptedSource::clock`] handles.
+    shared_now: std::sync::Arc<std::sync::atomic::AtomicU64>,
+}
+
+/// A handle on a [`ScriptedSource`]'s mock clock, readable while the node loop holds the
+/// source (an output callback stamping what it records).
+#[derive(Debug, Clone)]
+pub struct ClockHandle(std::sync::Arc<std::sync::atomic::AtomicU64>);
+
+impl ClockHandle {
+    /// The source's clock now (s).
+    pub fn now_s(&self) -> f64 {
+        f64::from_bits(self.0.load(std::sync::atomic::Ordering::Relaxed))
+    }
 }
 
 impl<I> ScriptedSource<I> {
@@ -68,8 +82,39 @@ impl<I> ScriptedSource<I> {
         script.sort_by(|a, b| a.0.total_cmp(&b.0));
         let now_s = script.first().map_or(0.0, |(t, _)| *t);
         let last = script.last().map_or(0.0, |(t, _)| *t);
-        Self { script: script.into(), now_s, end_s: end_s.max(last) }
+        let shared_now = std::sync::Arc::new(std::sync::atomic::AtomicU64::new(now_s.to_bits()));
+        Self { script: script.into(), now_s, end_s: end_s.max(last), shared_now }
     }
+
+    /// A handle that reads this source's clock.
+    pub fn clock(&self) -> ClockHandle {
+        ClockHandle(std::sync::Arc::clone(&self.shared_now))
+    }
+
+    fn set_now(&mut self, t: f64) {
+        self.now_s = self.now_s.max(t);
+        self.shared_now.store(self.now_s.to_bits(), std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// One golden-file line `{"t": t, "out": value}` with every float rounded to 1e-6 (so the
+/// last bits of a float computation do not make a difference between machines).
+pub fn json_line(t: f64, value: &impl serde::Serialize) -> String {
+    fn round(v: &mut serde_json::Value) {
+        match v {
+            serde_json::Value::Number(n) => {
+                if let Some(f) = n.as_f64().filter(|_| !n.is_i64() && !n.is_u64()) {
+                    *v = serde_json::json!((f * 1e6).round() / 1e6);
+                }
+            }
+            serde_json::Value::Array(a) => a.iter_mut().for_each(round),
+            serde_json::Value::Object(o) => o.values_mut().for_each(round),
+            _ => {}
+        }
+    }
+    let mut v = serde_json::json!({ "t": t, "out": value });
+    round(&mut v);
+    v.to_string()
 }
 
 impl<I> cowork_ros::InputSource<I> for ScriptedSource<I> {
@@ -77,15 +122,15 @@ impl<I> cowork_ros::InputSource<I> for ScriptedSource<I> {
         match self.script.front() {
             Some((t, _)) if *t <= deadline_s => {
                 let (t, input) = self.script.pop_front().expect("front exists");
-                self.now_s = self.now_s.max(t);
+                self.set_now(t);
                 cowork_ros::Event::Input(input)
             }
             _ if deadline_s > self.end_s || !deadline_s.is_finite() => {
-                self.now_s = self.now_s.max(self.end_s);
+                self.set_now(self.end_s);
                 cowork_ros::Event::End
             }
             _ => {
-                self.now_s = self.now_s.max(deadline_s);
+                self.set_now(deadline_s);
                 cowork_ros::Event::Deadline
             }
         }
@@ -143,6 +188,9 @@ mod scripted_tests {
         assert_eq!(s.next(0.5), Event::Input("b"));
         assert_eq!(s.next(0.9), Event::Deadline);
         assert!((s.now_s() - 0.9).abs() < 1e-12);
+        let clock = s.clock();
         assert_eq!(s.next(1.1), Event::End);
+        assert!((clock.now_s() - 1.0).abs() < 1e-12);
+        assert_eq!(super::json_line(0.5, &[0.1234567891, 2.0]), r#"{"out":[0.123457,2.0],"t":0.5}"#);
     }
 }
