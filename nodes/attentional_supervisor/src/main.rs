@@ -30,13 +30,11 @@ struct Args {
     node: cowork_ros::NodeArgs,
 }
 
-/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
     cowork_ros::node_main(run)
 }
 
-fn run() -> Result<()> {
-    let args = Args::parse();
+fn run(args: Args) -> Result<()> {
     let (params, place): (Params, _) = args.node.load(&args.params, "attentional_supervisor")?;
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     if let Some(path) = &args.save_ltm {

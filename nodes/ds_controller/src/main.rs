@@ -24,13 +24,11 @@ struct Args {
     node: cowork_ros::NodeArgs,
 }
 
-/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
     cowork_ros::node_main(run)
 }
 
-fn run() -> Result<()> {
-    let mut args = Args::parse();
+fn run(mut args: Args) -> Result<()> {
     // `config/...` defaults resolve to the bundled config directory from any working directory.
     args.urdf = cowork_ros::config::resolve(&args.urdf);
     let (mut params, place): (Params, _) = args.node.load(&args.params, "ds_controller")?;

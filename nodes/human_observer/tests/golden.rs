@@ -3,42 +3,18 @@
 //! ([`human_observer::run_loop`]) on a mock clock; every output, summarised one JSON per line,
 //! is compared with `tests/golden/observer.jsonl` (`UPDATE_GOLDEN=1` rewrites it).
 
+mod common;
+
 use std::path::PathBuf;
 
-use cowork_msgs::builtin_interfaces::Time;
-use cowork_msgs::msg::Skeleton;
+use common::{joint_state, root, skeleton};
 use cowork_msgs::sensor_msgs::JointState;
-use cowork_msgs::std_msgs::{Header, String as RosString};
-use cowork_people::{BodySize, MessageMeta, Performer, Stance};
+use cowork_msgs::std_msgs::String as RosString;
+use cowork_people::{BodySize, Performer, Stance};
 use cowork_robot::RobotModel;
 use cowork_testkit::{ScriptedSource, assert_golden};
 use human_observer::{Input, ObserverNode, Output, Params};
 use serde_json::json;
-
-const READY: [f64; 7] = [0.0, 0.5, 0.0, -1.2, 0.0, 0.6, 0.0];
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn joint_state(t: f64) -> JointState {
-    JointState {
-        header: Header { stamp: Time::from_secs_f64(t), frame_id: String::new() },
-        name: (1..=7).map(|i| format!("lwr_joint_{i}")).collect(),
-        position: READY.to_vec(),
-        ..Default::default()
-    }
-}
-
-fn skeleton(p: &Performer, t: f64) -> Skeleton {
-    p.pose(t).to_message(&MessageMeta {
-        stamp: Time::from_secs_f64(t),
-        frame_id: "lwr_base_link",
-        source: Skeleton::SOURCE_DEPTH_TRACKER,
-        person_id: p.person_id(),
-        with_velocities: true,
-    })
-}
 
 fn r4(x: f64) -> f64 {
     (x * 1e4).round() / 1e4

@@ -1,6 +1,7 @@
 //! The node message by message (no network), then its wiring over DDS on a private domain.
 
-use std::path::PathBuf;
+mod common;
+
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -9,20 +10,15 @@ use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{Gesture, HumanState, Skeleton};
 use cowork_msgs::rosgraph_msgs::Clock;
 use cowork_msgs::sensor_msgs::JointState;
-use cowork_msgs::std_msgs::{Header, String as RosString};
+use cowork_msgs::std_msgs::String as RosString;
 use cowork_msgs::visualization_msgs::{Marker, MarkerArray};
 use cowork_observer::LearnConfig;
 use cowork_observer::eval::{gesture_stream, learn};
-use cowork_people::{BodySize, MessageMeta, Performer, SensorConfig, Stance};
+use common::{joint_state, root, skeleton};
+use cowork_people::{BodySize, Performer, SensorConfig, Stance};
 use cowork_robot::RobotModel;
 use cowork_ros::{NodeConfig, RosNode, qos};
 use human_observer::{ObserverNode, Params, RunOptions};
-
-const READY: [f64; 7] = [0.0, 0.5, 0.0, -1.2, 0.0, 0.6, 0.0];
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 fn model() -> RobotModel {
     RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF")
@@ -33,25 +29,6 @@ fn params() -> Params {
     p.urdf = root().join("config/robot/lwr4plus.urdf").display().to_string();
     p.gestures = String::new();
     p
-}
-
-fn joint_state(t: f64) -> JointState {
-    JointState {
-        header: Header { stamp: Time::from_secs_f64(t), frame_id: String::new() },
-        name: (1..=7).map(|i| format!("lwr_joint_{i}")).collect(),
-        position: READY.to_vec(),
-        ..Default::default()
-    }
-}
-
-fn skeleton(p: &Performer, t: f64) -> Skeleton {
-    p.pose(t).to_message(&MessageMeta {
-        stamp: Time::from_secs_f64(t),
-        frame_id: "lwr_base_link",
-        source: Skeleton::SOURCE_DEPTH_TRACKER,
-        person_id: p.person_id(),
-        with_velocities: true,
-    })
 }
 
 #[test]

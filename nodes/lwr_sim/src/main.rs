@@ -43,13 +43,11 @@ struct Args {
     wrench_mode: Option<lwr_sim::WrenchMode>,
 }
 
-/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
     cowork_ros::node_main(run)
 }
 
-fn run() -> Result<()> {
-    let mut args = Args::parse();
+fn run(mut args: Args) -> Result<()> {
     // `config/...` defaults resolve to the bundled config directory from any working directory.
     args.urdf = cowork_ros::config::resolve(&args.urdf);
     args.scene = cowork_ros::config::resolve(&args.scene);

@@ -23,13 +23,11 @@ struct Args {
     node: cowork_ros::NodeArgs,
 }
 
-/// One line `error: ...` on failure (a backtrace only with RUST_BACKTRACE=1).
 fn main() -> std::process::ExitCode {
     cowork_ros::node_main(run)
 }
 
-fn run() -> Result<()> {
-    let args = Args::parse();
+fn run(args: Args) -> Result<()> {
     let (mut params, place): (Params, _) = args.node.load(&args.params, "robot_manager")?;
     if let Some(d) = &args.database_dir {
         params.database_dir = d.display().to_string();

@@ -99,10 +99,12 @@ impl NodeArgs {
     }
 }
 
-/// A node binary's `main`: logging to stderr, then `run`, ending as [`exit_code`] says.
-pub fn node_main(run: impl FnOnce() -> anyhow::Result<()>) -> std::process::ExitCode {
+/// A node binary's `main`: logging to stderr, the command line parsed into `A` (clap's
+/// usage errors and `--help` as usual), then `run`, ending as [`exit_code`] says (one line
+/// `error: ...` on failure, a backtrace only with `RUST_BACKTRACE=1`).
+pub fn node_main<A: clap::Parser>(run: impl FnOnce(A) -> anyhow::Result<()>) -> std::process::ExitCode {
     init_logging();
-    exit_code(run())
+    exit_code(run(A::parse()))
 }
 
 /// `s` seconds as a [`std::time::Duration`] that never panics: NaN and negative values give
