@@ -142,7 +142,7 @@ pub fn run(node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, options: 
             .chain(out.robot_stream.drain(..).map(|m| robot_pub.send(m)))
             .chain(out.object_stream.drain(..).map(|m| objects_pub.send(m)))
             .chain(out.manipulated.drain(..).map(|m| manipulated_pub.send(m)));
-        for w in sent.flatten().chain(out.warnings.drain(..)).collect::<Vec<_>>() {
+        for w in sent.flatten().chain(out.warnings.drain(..)) {
             warnings.warn(now, &w);
         }
         while let Ok(r) = done_rx.try_recv() {
