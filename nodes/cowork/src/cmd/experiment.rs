@@ -91,11 +91,11 @@ fn private_domain(k: u32) -> u16 {
 
 /// Runs the experiment and writes what was asked.
 pub fn run(args: ExperimentArgs) -> Result<()> {
-    if super::experiment_kitchen::NAMES.contains(&args.name.as_str()) {
-        return super::experiment_kitchen::run(&args);
+    if super::kitchen::NAMES.contains(&args.name.as_str()) {
+        return super::kitchen::run(&args);
     }
     if !cowork_experiment::plan::NAMES.contains(&args.name.as_str()) {
-        let known: Vec<&str> = cowork_experiment::plan::NAMES.iter().chain(&super::experiment_kitchen::NAMES).copied().collect();
+        let known: Vec<&str> = cowork_experiment::plan::NAMES.iter().chain(&super::kitchen::NAMES).copied().collect();
         bail!("unknown experiment `{}`; known: {}", args.name, known.join(", "));
     }
     if args.trials == 0 {

@@ -7,7 +7,7 @@ pub mod bench_lasa;
 pub mod bridge;
 pub mod bridge_stats;
 pub mod experiment;
-pub mod experiment_kitchen;
+pub mod kitchen;
 pub mod fded;
 pub mod keystore;
 pub mod learn;
