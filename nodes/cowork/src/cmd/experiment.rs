@@ -49,10 +49,11 @@ pub struct ExperimentArgs {
     /// Write the run as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Record every topic of each trial to DIR/<experiment>-<distance>-<seed>.mcap.
+    /// Record every topic of each trial to DIR/<experiment>-<distance>-<seed>.mcap (kitchen
+    /// experiments: DIR/<experiment>-<seed>.mcap).
     #[arg(long)]
     pub record: Option<PathBuf>,
-    /// Write a report (index.html + PNG plots per trial) into DIR.
+    /// Write a report (index.html + PNG plots per trial) into DIR (HRI experiments only).
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Simulated seconds per wall-clock second.
@@ -79,6 +80,10 @@ pub struct ExperimentArgs {
     /// human_observer's parameter file.
     #[arg(long, default_value = "config/human_observer.yaml")]
     pub observer_params: PathBuf,
+    /// Kitchen experiments: nobody passes by (by default a person drawn from the seed walks
+    /// up to the table, reaches once into the robot's workspace and leaves).
+    #[arg(long)]
+    pub no_person: bool,
     /// Wall-clock seconds to wait for every node to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,

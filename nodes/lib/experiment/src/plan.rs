@@ -371,6 +371,66 @@ fn stack_steps(
     Ok((steps, placements))
 }
 
+/// How a scripted person visits the table (one experiment's choice): when they walk in, how
+/// many times they reach, and where each reach goes.
+#[derive(Debug, Clone, Copy)]
+pub struct Visit {
+    /// Simulated time of walking in, drawn uniformly in [from, to) (s after the trial's t = 0).
+    pub enter_s: (f64, f64),
+    /// Number of reaches, drawn uniformly in [from, to].
+    pub reaches: (usize, usize),
+    /// A reach's target (base frame, m) for the person's side `sign` (±1 along y) and the
+    /// table top `top` (m).
+    pub target: fn(&mut ChaCha8Rng, f64, f64) -> Point3<f64>,
+}
+
+/// A person drawn from `seed` (thesis Sec. 5.1.3): height 1.55–1.90 m, on the −y or +y side,
+/// walks in from the room's entry to the standing spot, stands, reaches with the right hand
+/// into the robot's workspace as `visit` says (minimum-jerk, peak hand speed 0.5–1.5 m/s, held
+/// 0.5–1.5 s, 1–4 s standing after each), then walks out again.
+pub fn visitor(seed: u64, top: f64, visit: &Visit) -> Result<(Timeline, Variant)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let height = rng.random_range(1.55..=1.90);
+    let body = BodySize::new(height)?;
+    let sign = if rng.random_bool(0.5) { -1.0 } else { 1.0 };
+    let room = Room::default();
+    let spot = Point2::new(room.standing_spot.x, sign * room.standing_spot.y.abs());
+    let entry = Point2::new(room.entry.x, sign * room.entry.y.abs());
+    let centre = Point3::new(room.workspace_centre.x, sign * room.workspace_centre.y.abs(), 0.0);
+    let facing = |p: &Point2<f64>| (centre.y - p.y).atan2(centre.x - p.x);
+    let enter = rng.random_range(visit.enter_s.0..visit.enter_s.1);
+    let reaches = rng.random_range(visit.reaches.0..=visit.reaches.1);
+    let mut performer = Performer::new(1, body, cowork_people::Stance { position: entry, yaw: facing(&entry) }, seed)?
+        .with_floor_z(room.floor_z)?
+        .then(Action::Walk { to: spot, speed: 1.1, face_yaw: Some(facing(&spot)) })?
+        .then(Action::Stand { duration: rng.random_range(0.5..2.0) })?;
+    let shoulder_z = room.floor_z + body.lengths().hip_height + body.lengths().pelvis_to_shoulder;
+    let (mut speeds, mut targets) = (Vec::new(), Vec::new());
+    for _ in 0..reaches {
+        let target = (visit.target)(&mut rng, sign, top);
+        let shoulder = Point3::new(spot.x, spot.y - sign * 0.2, shoulder_z);
+        let peak = rng.random_range(0.5..1.5);
+        // Minimum-jerk reach: peak speed 1.875 x the mean speed.
+        let duration = (1.875 * (target - shoulder).norm() / peak).clamp(0.25, 3.0);
+        performer = performer
+            .then(Action::Reach { side: Side::Right, target, duration, hold: rng.random_range(0.5..1.5) })?
+            .then(Action::Stand { duration: rng.random_range(1.0..4.0) })?;
+        speeds.push(peak);
+        targets.push([target.x, target.y, target.z]);
+    }
+    performer = performer.then(Action::Walk { to: entry, speed: 1.2, face_yaw: None })?;
+    let mut people = Timeline::new();
+    people.add(enter, performer)?;
+    let variant = Variant {
+        body_height_m: height,
+        side: if sign < 0.0 { "-y".into() } else { "+y".into() },
+        enter_s: enter,
+        reach_speeds_m_s: speeds,
+        reach_targets: targets,
+    };
+    Ok((people, variant))
+}
+
 /// Sec. 5.1.3: the robot stacks block1 at g3 and block2 on top of it (g4); each block: above
 /// it, down (g1 / g2), grasp, up, above the stack, down (g3 / g4), release, up — constant-speed
 /// motions ẋ = α_h (g − x)/‖g − x‖ at 0.3 m/s nominal, orientation held —
@@ -381,82 +441,17 @@ fn stacking_hri(root: &std::path::Path, o: &Options) -> Result<Experiment> {
     let (scene_path, scene, place) = load_scene(root, o)?;
     let top = scene.table_top_z();
     let (steps, placements) = stack_steps(&scene, &place, &["block1", "block2"], STACK_SPEED)?;
-    // The person.
-    let mut rng = ChaCha8Rng::seed_from_u64(o.seed);
-    let height = rng.random_range(1.55..=1.90);
-    let body = BodySize::new(height)?;
-    let sign = if rng.random_bool(0.5) { -1.0 } else { 1.0 };
-    let room = Room::default();
-    let spot = Point2::new(room.standing_spot.x, sign * room.standing_spot.y.abs());
-    let entry = Point2::new(room.entry.x, sign * room.entry.y.abs());
-    let centre = Point3::new(
-        room.workspace_centre.x,
-        sign * room.workspace_centre.y.abs(),
-        0.0,
-    );
-    let facing = |p: &Point2<f64>| (centre.y - p.y).atan2(centre.x - p.x);
-    let enter = rng.random_range(1.0..4.0);
-    let reaches = rng.random_range(1..=3usize);
     // Targets on the arm's path on the person's side: the travel segment between the two
     // columns and the descent above the base blocks.
-    let base_y = sign * 0.3;
-    let mut performer = Performer::new(
-        1,
-        body,
-        cowork_people::Stance {
-            position: entry,
-            yaw: facing(&entry),
+    let visit = Visit {
+        enter_s: (1.0, 4.0),
+        reaches: (1, 3),
+        target: |rng, sign, top| {
+            let base_y = sign * 0.3;
+            Point3::new(rng.random_range(0.45..0.62), base_y - sign * rng.random_range(0.0..0.35), top + rng.random_range(0.12..0.30))
         },
-        o.seed,
-    )?
-    .with_floor_z(room.floor_z)?
-    .then(Action::Walk {
-        to: spot,
-        speed: 1.1,
-        face_yaw: Some(facing(&spot)),
-    })?
-    .then(Action::Stand {
-        duration: rng.random_range(0.5..2.0),
-    })?;
-    let shoulder_z = room.floor_z + body.lengths().hip_height + body.lengths().pelvis_to_shoulder;
-    let (mut speeds, mut targets) = (Vec::new(), Vec::new());
-    for _ in 0..reaches {
-        let target = Point3::new(
-            rng.random_range(0.45..0.62),
-            base_y - sign * rng.random_range(0.0..0.35),
-            top + rng.random_range(0.12..0.30),
-        );
-        let shoulder = Point3::new(spot.x, spot.y - sign * 0.2, shoulder_z);
-        let peak = rng.random_range(0.5..1.5);
-        // Minimum-jerk reach: peak speed 1.875 x the mean speed.
-        let duration = (1.875 * (target - shoulder).norm() / peak).clamp(0.25, 3.0);
-        performer = performer
-            .then(Action::Reach {
-                side: Side::Right,
-                target,
-                duration,
-                hold: rng.random_range(0.5..1.5),
-            })?
-            .then(Action::Stand {
-                duration: rng.random_range(1.0..4.0),
-            })?;
-        speeds.push(peak);
-        targets.push([target.x, target.y, target.z]);
-    }
-    performer = performer.then(Action::Walk {
-        to: entry,
-        speed: 1.2,
-        face_yaw: None,
-    })?;
-    let mut people = Timeline::new();
-    people.add(enter, performer)?;
-    let variant = Variant {
-        body_height_m: height,
-        side: if sign < 0.0 { "-y".into() } else { "+y".into() },
-        enter_s: enter,
-        reach_speeds_m_s: speeds,
-        reach_targets: targets,
     };
+    let (people, variant) = visitor(o.seed, top, &visit)?;
     let time_limit_s = o.time_limit_s.unwrap_or(150.0);
     if !(time_limit_s.is_finite() && time_limit_s > 0.0) {
         return Err(Error::BadOption {

@@ -26,7 +26,18 @@
 //! the spoon, plus the bottle back upright and never held by the robot. The replanning latency
 //! is the simulated time from the first `/lwr/world` report with the bottle out of the
 //! workspace to the supervisor's next `/supervisor/action` (what a `ros2 topic echo` would see).
-//! The person is not drawn in the depth image yet (no skeleton): only the bottle moves.
+//! This person is not drawn in the depth image (no skeleton): only the bottle moves.
+//!
+//! `coffee-closed-bottle` (Fig. 5.22): as `coffee`, but the bottle is "closed": when the robot
+//! has carried it over the cup the person says `stop`, opens it (6 s) and says `repeat`;
+//! success additionally needs the supervisor to stop the running action, the bottle to stay
+//! within 2 cm while stopped, and an action command after `repeat` ([`closed_bottle`]).
+//!
+//! In every kitchen trial, unless `--no-person`, a person drawn from the seed walks up to the
+//! table, reaches once into the workspace near the cup and leaves ([`passer_by`]): drawn in the
+//! depth image and tracked by the observer, so the robot slows down and avoids; the trial
+//! reports the true closest robot–body distance, contacts (a contact fails the trial) and the
+//! time the slow-down cost.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -44,14 +55,18 @@ use serde::Serialize;
 use super::experiment::ExperimentArgs;
 use super::teach::{TeachSetup, Taught, teach};
 
-mod judge;
 mod bottle_taker;
+mod closed_bottle;
+mod judge;
+mod passer_by;
 
-use judge::Judge;
 use bottle_taker::BottleTaker;
+use closed_bottle::{SuspendOutcome, Suspender};
+use judge::Judge;
+use passer_by::{PasserBy, PersonOutcome};
 
 /// Kitchen experiments this runner knows.
-pub const NAMES: [&str; 3] = ["pouring", "coffee", "coffee-cooperative"];
+pub const NAMES: [&str; 4] = ["pouring", "coffee", "coffee-cooperative", "coffee-closed-bottle"];
 
 /// Thesis Table 5.4 (pourDrink), means over ten trials: (subtask, teaching s, execution s).
 const THESIS_POURING: [(&str, f64, f64); 3] = [("take(water)", 20.1, 31.0), ("pour(water)", 30.3, 46.5), ("pourDrink", 50.4, 77.5)];
@@ -88,6 +103,9 @@ struct Kitchen {
     limit_s: f64,
     /// A scripted person takes over add(water) (`coffee-cooperative`).
     cooperative: bool,
+    /// The bottle is closed: the person stops the robot over the cup, opens it, says `repeat`
+    /// (`coffee-closed-bottle`).
+    closed_bottle: bool,
 }
 
 const POURING: Kitchen = Kitchen {
@@ -99,6 +117,7 @@ const POURING: Kitchen = Kitchen {
     thesis: &THESIS_POURING,
     limit_s: 150.0,
     cooperative: false,
+    closed_bottle: false,
 };
 
 const COFFEE: Kitchen = Kitchen {
@@ -110,6 +129,7 @@ const COFFEE: Kitchen = Kitchen {
     thesis: &THESIS_COFFEE,
     limit_s: 420.0,
     cooperative: false,
+    closed_bottle: false,
 };
 
 /// Thesis Fig. 5.21 (cooperative prepareCoffee, one execution): the robot's add(coffee) and
@@ -125,6 +145,15 @@ const COFFEE_COOPERATIVE: Kitchen = Kitchen {
     thesis: &THESIS_COOPERATIVE,
     limit_s: 420.0,
     cooperative: true,
+    closed_bottle: false,
+};
+
+/// Thesis Fig. 5.22: the person suspends the task (`stop`), opens the bottle and resumes it
+/// (`repeat`); executed as `coffee` otherwise (the thesis gives no times for it).
+const COFFEE_CLOSED_BOTTLE: Kitchen = Kitchen {
+    table: "Fig. 5.22 (prepareCoffee, the person opens the bottle)",
+    closed_bottle: true,
+    ..COFFEE
 };
 
 /// The scene object the person takes in `coffee-cooperative`, and its task name.
@@ -165,10 +194,12 @@ pub struct KitchenTrial {
     pub reason: String,
     /// Simulated execution time (task start → accomplished or limit), s.
     pub duration_s: f64,
-    /// No person in this experiment yet.
+    /// Smallest true robot–person distance, m (the person passing by; `None` without one).
     pub min_distance_m: Option<f64>,
-    /// No person in this experiment yet.
+    /// Robot–person contacts.
     pub collisions: u32,
+    /// The person passing by: who, where they reached, what they cost.
+    pub person: Option<PersonOutcome>,
     /// Per subtask (and the whole task), simulated s.
     pub subtasks: BTreeMap<String, SubtaskTime>,
     /// Teaching time: the demonstration's length, s.
@@ -190,6 +221,8 @@ pub struct KitchenTrial {
     pub replanning_latency_s: Option<f64>,
     /// `coffee-cooperative`: the first action commanded after the bottle left.
     pub replanned_to: Option<String>,
+    /// `coffee-closed-bottle`: the stop, the stillness and the resumption.
+    pub suspension: Option<SuspendOutcome>,
 }
 
 /// The run.
@@ -214,6 +247,9 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
     if !(args.rate.is_finite() && args.rate > 0.0) {
         bail!("--rate {} must be > 0", args.rate);
     }
+    if args.report.is_some() {
+        bail!("{}: --report is not supported by the kitchen experiments yet; use --json, and --record DIR to open a trial in Foxglove", args.name);
+    }
     if args.scene.is_some() {
         bail!("{}: --scene is not supported (the kitchen scene is config/scenes/kitchen.yaml)", args.name);
     }
@@ -226,6 +262,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
     let kitchen = match args.name.as_str() {
         "coffee" => &COFFEE,
         "coffee-cooperative" => &COFFEE_COOPERATIVE,
+        "coffee-closed-bottle" => &COFFEE_CLOSED_BOTTLE,
         _ => &POURING,
     };
     let scene = Scene::from_file(Path::new("config/scenes/kitchen.yaml")).context("config/scenes/kitchen.yaml (run from the repository root)")?;
@@ -248,6 +285,35 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             t.wall_s,
             if t.reason.is_empty() { String::new() } else { format!(": {}", t.reason) }
         );
+        if let Some(s) = &t.suspension {
+            println!(
+                "  stop over the cup{} → bottle moved {:.3} m while stopped → repeat → {}",
+                s.stopped_action.as_ref().map(|a| format!(" (stopped {a})")).unwrap_or_default(),
+                s.drift_while_stopped_m,
+                match (&s.resumed_with, s.resume_latency_s) {
+                    (Some(a), Some(l)) => format!("{a} commanded after {l:.3} s (simulated)"),
+                    _ => "nothing commanded".into(),
+                }
+            );
+        }
+        if let Some(p) = &t.person {
+            match &p.variant {
+                Some(v) => println!(
+                    "  person ({:.2} m, {} side) in at {:.1} s, reached to ({:.2}, {:.2}, {:.2}): closest {}, {} contact(s), slow-down cost {:.1} s, stopped {:.1} s",
+                    v.body_height_m,
+                    v.side,
+                    v.enter_s,
+                    v.reach_targets.first().map_or(f64::NAN, |r| r[0]),
+                    v.reach_targets.first().map_or(f64::NAN, |r| r[1]),
+                    v.reach_targets.first().map_or(f64::NAN, |r| r[2]),
+                    p.min_distance_m.map_or("-".into(), |d| format!("{:.3} m", d)),
+                    p.collisions,
+                    p.slowed_cost_s,
+                    p.stopped_s
+                ),
+                None => println!("  nobody passed by (--no-person)"),
+            }
+        }
         if kitchen.cooperative {
             match (&t.replanned_to, t.replanning_latency_s) {
                 (Some(a), Some(l)) => println!("  bottle taken by the person → next action {a} after {:.3} s (simulated)", l),
@@ -301,6 +367,21 @@ fn summarise(name: &str, kitchen: &Kitchen, trials: Vec<KitchenTrial>) -> Kitche
         summary.insert("replanning_latency_s_median".into(), m);
         summary.insert("replanning_latency_s_max".into(), latencies.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     }
+    let people: Vec<&PersonOutcome> = trials.iter().filter_map(|t| t.person.as_ref()).filter(|p| p.variant.is_some()).collect();
+    if !people.is_empty() {
+        summary.insert("person_trials".into(), people.len() as f64);
+        summary.insert("collisions".into(), people.iter().map(|p| f64::from(p.collisions)).sum());
+        if let Some(d) = people.iter().filter_map(|p| p.min_distance_m).reduce(f64::min) {
+            summary.insert("min_distance_m".into(), d);
+        }
+        if let Some(m) = median(people.iter().map(|p| p.slowed_cost_s).collect()) {
+            summary.insert("person_cost_s_median".into(), m);
+        }
+    }
+    let resumed: Vec<f64> = trials.iter().filter_map(|t| t.suspension.as_ref().and_then(|s| s.resume_latency_s)).collect();
+    if let Some(m) = median(resumed) {
+        summary.insert("resume_latency_s_median".into(), m);
+    }
     KitchenRun { experiment: name.to_owned(), trials, summary }
 }
 
@@ -321,9 +402,23 @@ fn print_table(run: &KitchenRun, kitchen: &Kitchen) {
     if let (Some(m), Some(x)) = (get("replanning_latency_s_median"), get("replanning_latency_s_max")) {
         println!("| replanning latency (bottle gone → next action command), median / max | | | | {:.3} / {:.3} s |", m, x);
     }
+    if let Some(n) = get("person_trials") {
+        println!(
+            "| person passing by ({n:.0} trials): slow-down cost, median | | | | {} s |",
+            f(get("person_cost_s_median"))
+        );
+        println!(
+            "| person: closest robot–body distance / contacts | | | 0.067 m (Sec. 5.1.3) | {} m / {:.0} |",
+            get("min_distance_m").map_or("-".into(), |d| format!("{d:.3}")),
+            get("collisions").unwrap_or(0.0)
+        );
+    }
+    if let Some(m) = get("resume_latency_s_median") {
+        println!("| `repeat` → the stopped task's next action command, median | | | | {m:.3} s |");
+    }
     println!(
         "| success | {} | {}/{} |",
-        if kitchen.cooperative { "1/1" } else if kitchen.task == "pourDrink" { "10/10" } else { "9/10" },
+        if kitchen.cooperative { "1/1" } else if kitchen.closed_bottle { "-" } else if kitchen.task == "pourDrink" { "10/10" } else { "9/10" },
         get("successes").unwrap_or(0.0) as usize,
         run.trials.len()
     );
@@ -439,6 +534,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         duration_s: 0.0,
         min_distance_m: None,
         collisions: 0,
+        person: None,
         subtasks: BTreeMap::new(),
         teaching_s: taught.demonstration_s,
         teaching_subtasks,
@@ -449,6 +545,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         failed_actions: Vec::new(),
         replanning_latency_s: None,
         replanned_to: None,
+        suspension: None,
     };
     if !taught.task_done || taught.learned.is_empty() {
         trial.reason = format!("teaching did not complete {} (learned {:?})", kitchen.task, taught.learned);
@@ -493,13 +590,26 @@ fn execute(
     let distances = node.subscribe(&topics::FDED_DISTANCES)?;
     let object_stream = node.subscribe(&topics::OBJECT_STREAM.reading(Delivery::Reliable { depth: 100 }))?;
     let supervisor_actions = node.subscribe(&topics::SUPERVISOR_ACTION.reading(Delivery::Reliable { depth: 100 }))?;
+    let joints = node.subscribe(&topics::JOINT_STATES.reading(Delivery::BestEffort { depth: 2000 }))?;
+    let human = node.subscribe(&topics::HUMAN_STATE.reading(Delivery::Reliable { depth: 100 }))?;
+    let skeleton = node.advertise(&topics::SKELETON)?;
     let place = node.advertise(&topics::PLACE_OBJECT)?;
     let speech = node.advertise(&topics::SPEECH_COMMAND)?;
     let mut person = kitchen.cooperative.then(BottleTaker::default);
+    let mut suspender = kitchen.closed_bottle.then(Suspender::default);
+    let table_top_z = Scene::from_file(scene).with_context(|| format!("reading {}", scene.display()))?.table_top_z();
+    let model = cowork_robot::RobotModel::from_urdf_file("config/robot/lwr4plus.urdf").context("config/robot/lwr4plus.urdf")?;
+    let mut passer_by = PasserBy::new(trial.seed, table_top_z, !args.no_person, model)?;
     // Bottle out of the workspace (the manager says so), then the next action command.
     let mut t_gone: Option<f64> = None;
     let mut g = Graph::new(domain, &dir.join("exec"))?;
     let bin = |b: &str| args.bin_dir.join(b);
+    if let Some(rec) = &args.record {
+        std::fs::create_dir_all(rec).with_context(|| format!("creating {}", rec.display()))?;
+        let bag = rec.join(format!("{}-{}.mcap", args.name, trial.seed));
+        let me = std::env::current_exe().context("locating the cowork binary for the recorder")?;
+        g.spawn("recorder", &me, &["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), dur.clone()])?;
+    }
     g.spawn("lwr_sim", &bin("lwr_sim"), &["--scene".into(), s(scene), "--rate".into(), args.rate.to_string(), "--duration".into(), format!("{:.0}", limit_s + 60.0)])?;
     let args_of = |v: &[&str]| v.iter().map(|a| (*a).to_owned()).collect::<Vec<String>>();
     g.spawn("fded_distance", &bin("fded_distance"), &args_of(&["--params", "config/fded_distance.yaml", "--use-sim-time", "--backend", "cpu", "--duration", dur.as_str()]))?;
@@ -539,7 +649,21 @@ fn execute(
                     }
                 }
             }
+            if let Some(s) = suspender.as_mut()
+                && let Some(text) = s.step(&w, w.header.stamp.to_secs_f64())
+            {
+                speech.publish(RosString { data: text.into() })?;
+            }
             judge.on_world(w);
+        }
+        while let Some(m) = joints.take() {
+            passer_by.on_joint_state(&m);
+        }
+        while let Some(m) = human.take() {
+            passer_by.on_human_state(&m, t_start.is_some() && settle_until.is_none());
+        }
+        if let Some(t0) = t_start {
+            passer_by.frames(t0, judge.last_t.unwrap_or(t0), |m| Ok(skeleton.publish(m.clone())?))?;
         }
         while let Some(o) = object_stream.take() {
             if t_gone.is_none() && o.objects.iter().any(|x| x.name == PERSON_OBJECT.1 && !x.visible) {
@@ -548,6 +672,9 @@ fn execute(
         }
         while let Some(a) = supervisor_actions.take() {
             let t = a.header.stamp.to_secs_f64();
+            if let Some(s) = suspender.as_mut() {
+                s.on_action(t, &a.label, a.stop);
+            }
             if let Some(gone) = t_gone
                 && trial.replanned_to.is_none()
                 && !a.stop
@@ -594,9 +721,16 @@ fn execute(
             failure = "wall-time limit reached".into();
             break;
         }
-        std::thread::sleep(Duration::from_millis(20));
+        std::thread::sleep(Duration::from_millis(4));
     }
     g.stop();
+    let outcome = passer_by.outcome();
+    trial.min_distance_m = outcome.min_distance_m;
+    trial.collisions = outcome.collisions;
+    if outcome.collisions > 0 {
+        failure = [failure, format!("{} contact(s) with the person", outcome.collisions)].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join("; ");
+    }
+    trial.person = Some(outcome);
     // Subtask times from the manager's action events: first action started → last action done.
     let span = |labels: &[String]| -> SubtaskTime {
         // Earliest start to latest end of its actions (add(water) and add(coffee) may run in
@@ -607,7 +741,6 @@ fn execute(
         // A time only for a subtask that completed: a stalled one has no execution time.
         SubtaskTime { time_s: first.zip(last).filter(|_| all).map(|(a, b)| b - a), success: all }
     };
-    let mut all = Vec::new();
     let mut behaviours: BTreeMap<String, Vec<String>> = BTreeMap::new();
     for l in &taught.learned {
         let name = subtask_name(&l.subtask);
@@ -615,18 +748,30 @@ fn execute(
         if let Some(beh) = behaviour_of(&name) {
             behaviours.entry(beh).or_default().extend(l.actions.iter().cloned());
         }
-        all.extend(l.actions.iter().cloned());
     }
     // A behaviour spans its subtasks: the order they were taught in is the order they run.
     for (beh, actions) in behaviours {
         trial.subtasks.insert(beh, span(&actions));
     }
-    trial.subtasks.insert(kitchen.task.into(), span(&all));
+    // The whole task: the robot's first action → the supervisor's "task accomplished" (in the
+    // cooperative run the person's add(water) never runs on the robot, so it is not a span).
+    let accomplished_now = accomplished(&g);
+    trial.subtasks.insert(
+        kitchen.task.into(),
+        SubtaskTime { time_s: (accomplished_now && settle_until.is_some()).then_some(trial.duration_s), success: accomplished_now },
+    );
     trial.failed_actions = events.iter().filter(|e| e.3).map(|e| format!("{}: {}", e.1, e.4)).collect();
     trial.max_tilt_over_cup_deg = judge.max_tilt_over_cup.iter().map(|(n, t)| (n.clone(), t.to_degrees())).collect();
-    let verdict = judge.verdict();
+    let mut verdict = judge.verdict();
+    if let Some(s) = suspender {
+        let why = s.outcome.verdict();
+        if !why.is_empty() {
+            verdict = [verdict, why.join("; ")].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join("; ");
+        }
+        trial.suspension = Some(s.outcome);
+    }
     trial.reason = [failure, verdict].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join("; ");
-    if trial.reason.is_empty() && !accomplished(&g) {
+    if trial.reason.is_empty() && !accomplished_now {
         trial.reason = "the supervisor did not report the task accomplished".into();
     }
     trial.success = trial.reason.is_empty();

@@ -1,0 +1,153 @@
+//! The person in every kitchen trial (issue #15, as in the HRI study of Sec. 5.1.3): drawn from
+//! the trial's seed, they walk up to the table some seconds after the robot starts, reach once
+//! into the robot's workspace near the cup, and leave. Their skeleton goes to `/human/skeleton`
+//! (lwr_sim draws the body in the depth image, the human observer tracks it), so the robot
+//! slows down by α_h and bends its path around the body by fDED. Judged from the simulated
+//! world: the true robot–body distance and contacts (`cowork_experiment::judge`), and the
+//! time the slow-down cost, from the observer's `/human/state`.
+
+use anyhow::Result;
+use cowork_experiment::judge::Judge;
+use cowork_experiment::plan::{Variant, Visit, visitor};
+use cowork_msgs::builtin_interfaces::Time;
+use cowork_msgs::msg::{HumanState, Skeleton};
+use cowork_msgs::sensor_msgs::JointState;
+use cowork_people::{MessageMeta, Timeline};
+use cowork_robot::RobotModel;
+use nalgebra::Point3;
+use rand::Rng;
+use serde::Serialize;
+
+/// The kitchen's visit: in 3–40 s after the robot starts, one reach to a point above the table
+/// between the person's side and the cup (where the robot carries the bottle, the jar and the
+/// spoon), 15–30 cm above the table top.
+const KITCHEN_VISIT: Visit = Visit {
+    enter_s: (3.0, 40.0),
+    reaches: (1, 1),
+    target: |rng, sign, top| Point3::new(rng.random_range(0.45..0.65), sign * rng.random_range(0.05..0.30), top + rng.random_range(0.15..0.30)),
+};
+
+/// Skeleton frames per simulated second.
+const RATE_HZ: f64 = 120.0;
+
+/// What the person did and cost in one trial.
+#[derive(Debug, Clone, Serialize)]
+pub struct PersonOutcome {
+    /// Who came, when, and where they reached (`None`: `--no-person`).
+    pub variant: Option<Variant>,
+    /// Smallest true distance between a robot link and the body, m (`None`: nobody came
+    /// while the joint states were known).
+    pub min_distance_m: Option<f64>,
+    /// Robot–body contacts (clear → touching).
+    pub collisions: u32,
+    /// Simulated time the slow-down cost: ∫ (1 − v / v_far) dt over the execution, with v the
+    /// observer's speed scale and v_far its value with nobody near, s.
+    pub slowed_cost_s: f64,
+    /// Simulated time the observer had the robot stopped, s.
+    pub stopped_s: f64,
+    /// Skeleton frames not sent because the runner fell behind the simulated clock.
+    pub frames_dropped: u64,
+}
+
+/// The person of one trial, and the judge of what they did.
+pub struct PasserBy {
+    people: Option<(Timeline, Variant)>,
+    judge: Judge,
+    next_frame: u64,
+    frames_dropped: u64,
+    skeleton: Skeleton,
+    /// Speed scale with nobody near (the largest seen), m/s.
+    v_far: f64,
+    /// Last `/human/state` (stamp s, speed scale m/s, stopped).
+    last_state: Option<(f64, f64, bool)>,
+    slowed_cost_s: f64,
+    stopped_s: f64,
+}
+
+impl PasserBy {
+    /// The person of `seed` (none with `present == false`), judged against `model`.
+    pub fn new(seed: u64, table_top_z: f64, present: bool, model: RobotModel) -> Result<Self> {
+        let people = if present { Some(visitor(seed, table_top_z, &KITCHEN_VISIT)?) } else { None };
+        Ok(Self {
+            people,
+            judge: Judge::new(model, cowork_people::DEFAULT_FLOOR_Z)?,
+            next_frame: 0,
+            frames_dropped: 0,
+            skeleton: Skeleton::default(),
+            v_far: 0.0,
+            last_state: None,
+            slowed_cost_s: 0.0,
+            stopped_s: 0.0,
+        })
+    }
+
+    /// Sends, through `publish`, the skeleton frames due by simulated time `now` for a robot
+    /// that started at `t0` (the timeline's zero). A runner that fell behind sends only the
+    /// newest frame, as a tracker that drops frames.
+    pub fn frames(&mut self, t0: f64, now: f64, mut publish: impl FnMut(&Skeleton) -> Result<()>) -> Result<()> {
+        let Some((people, _)) = &self.people else { return Ok(()) };
+        let t = (now - t0).min(people.duration());
+        if t < 0.0 {
+            return Ok(());
+        }
+        let due = (t * RATE_HZ).floor() as u64;
+        if due > self.next_frame + 2 {
+            self.frames_dropped += due - self.next_frame;
+            self.next_frame = due;
+        }
+        while self.next_frame <= due {
+            let tp = self.next_frame as f64 / RATE_HZ;
+            for (id, pose) in people.poses_at(tp) {
+                let meta = MessageMeta {
+                    stamp: Time::from_secs_f64(t0 + tp),
+                    frame_id: cowork_people::BASE_FRAME,
+                    source: Skeleton::SOURCE_XSENS,
+                    person_id: id,
+                    with_velocities: true,
+                };
+                pose.write_message(&meta, &mut self.skeleton);
+                self.judge.on_skeleton(&self.skeleton);
+                publish(&self.skeleton)?;
+            }
+            self.next_frame += 1;
+        }
+        Ok(())
+    }
+
+    /// `/joint_states` (for the true distances).
+    pub fn on_joint_state(&mut self, m: &JointState) {
+        self.judge.on_joint_state(m);
+    }
+
+    /// `/human/state`: adds the slow-down's cost while the robot executes (`executing`).
+    pub fn on_human_state(&mut self, m: &HumanState, executing: bool) {
+        let t = m.header.stamp.to_secs_f64();
+        if !m.present && m.speed_scale.is_finite() {
+            self.v_far = self.v_far.max(m.speed_scale);
+        }
+        if let Some((t_prev, v, stopped)) = self.last_state
+            && executing
+            && self.v_far > 0.0
+        {
+            // Gaps (a silent observer) count at most 0.2 s.
+            let dt = (t - t_prev).clamp(0.0, 0.2);
+            self.slowed_cost_s += dt * (1.0 - (v / self.v_far).clamp(0.0, 1.0));
+            if stopped {
+                self.stopped_s += dt;
+            }
+        }
+        self.last_state = Some((t, m.speed_scale, m.stopped));
+    }
+
+    /// The outcome so far.
+    pub fn outcome(&self) -> PersonOutcome {
+        PersonOutcome {
+            variant: self.people.as_ref().map(|(_, v)| v.clone()),
+            min_distance_m: self.judge.min_distance(),
+            collisions: self.judge.collisions,
+            slowed_cost_s: self.slowed_cost_s,
+            stopped_s: self.stopped_s,
+            frames_dropped: self.frames_dropped,
+        }
+    }
+}
