@@ -39,8 +39,8 @@ def manager_and_supervisor(context):
     learned = os.path.join(ROOT, LaunchConfiguration("learned").perform(context))
     if execute:
         ltm = os.path.join(learned, "kitchen.learned.schema")
-        if not os.path.isfile(ltm):
-            raise RuntimeError(f"nothing learned in {learned}: run launch_scripts/teach.sh")
+        if not (os.path.isfile(ltm) and os.path.isfile(os.path.join(learned, "primitives", "lwr.primitives.json"))):
+            raise RuntimeError(f"nothing learned in {learned}: run launch_scripts/teach.sh (or give learned:=DIR)")
         work = os.path.join(ROOT, "out", "execute")
         shutil.rmtree(work, ignore_errors=True)
         database = os.path.join(work, "primitives")
