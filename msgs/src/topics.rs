@@ -147,8 +147,13 @@ pub const FDED_MARKERS: Topic<MarkerArray> = Topic::new("/fded/markers", Deliver
 pub const MOTION_COMMAND: Topic<MotionCommand> = Topic::new("/motion/command", Delivery::Reliable { depth: 10 });
 /// The controller's progress on the current motion.
 pub const MOTION_STATUS: Topic<MotionStatus> = Topic::new("/motion/status", Delivery::Reliable { depth: 10 });
-/// The robot manager's action events and segments.
-pub const ROBOT_STREAM: Topic<RobotStream> = Topic::new("/robot_stream", Delivery::Reliable { depth: 100 });
+/// The robot manager's action events and segments. A state stream (30 Hz of simulated time,
+/// 120 Hz of wall time while teaching at `--rate 4`) that carries events which must not be
+/// lost: with depth 100 a supervisor stalled for 0.8 s on a loaded machine lost a reliable
+/// sample to the writer's KeepLast history (`noa5(cup)` of a pouring demonstration never
+/// reached it, so pour(water) was learned without its pour). 2000 samples hold ≥ 16 s of wall
+/// time at any rate the graph runs.
+pub const ROBOT_STREAM: Topic<RobotStream> = Topic::new("/robot_stream", Delivery::Reliable { depth: 2000 });
 /// Objects the robot manager sees (visible, pose).
 pub const OBJECT_STREAM: Topic<ObjectStream> = Topic::new("/object_stream", Delivery::DEFAULT);
 /// Objects the robot holds or is about to hold (fDED leaves them out of the obstacles).

@@ -151,3 +151,63 @@ impl PasserBy {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model() -> RobotModel {
+        RobotModel::from_urdf_file(concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/robot/lwr4plus.urdf")).expect("the LWR model")
+    }
+
+    fn state(t: f64, present: bool, v: f64, stopped: bool) -> HumanState {
+        let mut m = HumanState { present, speed_scale: v, stopped, ..Default::default() };
+        m.header.stamp = Time::from_secs_f64(t);
+        m
+    }
+
+    #[test]
+    fn the_slow_down_cost_integrates_one_minus_the_speed_ratio_while_executing() {
+        let mut p = PasserBy::new(1, 0.0, false, model()).expect("passer-by");
+        let mut t = 0.0;
+        for _ in 0..10 {
+            p.on_human_state(&state(t, false, 0.3, false), true); // nobody: no cost
+            t += 0.1;
+        }
+        for _ in 0..20 {
+            p.on_human_state(&state(t, true, 0.15, false), true); // half speed for 2 s: 1 s
+            t += 0.1;
+        }
+        for _ in 0..10 {
+            p.on_human_state(&state(t, true, 0.0, true), true); // stopped for 1 s: 1 s
+            t += 0.1;
+        }
+        for _ in 0..10 {
+            p.on_human_state(&state(t, true, 0.0, true), false); // not executing: nothing
+            t += 0.1;
+        }
+        let o = p.outcome();
+        assert!((o.slowed_cost_s - 2.0).abs() < 0.11, "{}", o.slowed_cost_s);
+        assert!((o.stopped_s - 1.0).abs() < 0.11, "{}", o.stopped_s);
+        assert!(o.variant.is_none() && o.min_distance_m.is_none());
+    }
+
+    #[test]
+    fn the_person_is_sent_at_120_hz_of_simulated_time_and_a_late_runner_skips_frames() {
+        let mut p = PasserBy::new(3, 0.0, true, model()).expect("passer-by");
+        let enter = p.outcome().variant.expect("a person").enter_s;
+        assert!((3.0..40.0).contains(&enter));
+        let mut stamps = Vec::new();
+        p.frames(10.0, 10.0 + enter + 1.0, |m| Ok(stamps.push(m.header.stamp.to_secs_f64()))).expect("frames");
+        // One frame, the newest: the runner started late.
+        assert_eq!(stamps.len(), 1, "{stamps:?}");
+        let mut t = 10.0 + enter + 1.0;
+        for _ in 0..60 {
+            t += 1.0 / 240.0;
+            p.frames(10.0, t, |m| Ok(stamps.push(m.header.stamp.to_secs_f64()))).expect("frames");
+        }
+        assert!((29..=32).contains(&stamps.len()), "0.25 s at 120 Hz: {}", stamps.len());
+        assert!(stamps.windows(2).all(|w| (w[1] - w[0] - 1.0 / 120.0).abs() < 1e-9));
+        assert!(p.outcome().frames_dropped > 100);
+    }
+}
