@@ -136,6 +136,19 @@ pub struct Taught {
     pub feed: FeedSummary,
 }
 
+impl Taught {
+    /// Segments the manager cut that the supervisor attached to no subtask (a lost
+    /// `/robot_stream` sample, a segment it refused), except the last one: the free motion
+    /// after the last action, cut when the teacher says `done`, belongs to no subtask.
+    pub fn unattached(&self) -> Vec<&str> {
+        let attached = |label: &str| {
+            self.learned.iter().flat_map(|l| &l.actions).any(|a| a == label || a.strip_prefix(label).is_some_and(|r| r.starts_with('_')))
+        };
+        let n = self.segments.len().saturating_sub(1);
+        self.segments[..n].iter().map(|s| s.label.as_str()).filter(|l| !attached(l)).collect()
+    }
+}
+
 /// Runs `cowork teach`.
 pub fn run(args: TeachArgs) -> Result<()> {
     let setup = TeachSetup {
@@ -158,6 +171,15 @@ pub fn run(args: TeachArgs) -> Result<()> {
     if taught.learned.is_empty() {
         bail!(
             "the demonstrations taught nothing: no action was attached to a subtask of {} (logs in {})",
+            setup.task,
+            setup.logs.display()
+        );
+    }
+    let lost = taught.unattached();
+    if !lost.is_empty() {
+        bail!(
+            "the supervisor attached no subtask to segment(s) {} that the manager cut: what was learned of {} misses them (see the supervisor's warnings in {})",
+            lost.join(", "),
             setup.task,
             setup.logs.display()
         );

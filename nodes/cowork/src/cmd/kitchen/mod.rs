@@ -547,6 +547,12 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         replanned_to: None,
         suspension: None,
     };
+    let lost = taught.unattached();
+    if !lost.is_empty() {
+        trial.reason = format!("teaching lost segment(s) {}: the supervisor attached them to no subtask", lost.join(", "));
+        trial.wall_s = wall0.elapsed().as_secs_f64();
+        return Ok(trial);
+    }
     if !taught.task_done || taught.learned.is_empty() {
         trial.reason = format!("teaching did not complete {} (learned {:?})", kitchen.task, taught.learned);
         trial.wall_s = wall0.elapsed().as_secs_f64();
