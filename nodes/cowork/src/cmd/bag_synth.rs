@@ -40,6 +40,10 @@ pub struct SynthArgs {
     /// arm and the objects, so `cowork teach --bag A --bag B` replays them one after the other.
     #[arg(long = "after")]
     pub after: Vec<String>,
+    /// Kinesthetic scenarios: start from this scene file (the arm's `initial_joints_deg`, the
+    /// objects' poses) instead of the scenario's own, e.g. where a running task left them.
+    #[arg(long)]
+    pub start_scene: Option<PathBuf>,
 }
 
 /// Writes the bag and prints what it holds.
@@ -53,6 +57,7 @@ pub fn run(args: SynthArgs) -> Result<()> {
         config_dir: args.config_dir,
         vary_teacher: args.vary_teacher,
         after: args.after.iter().map(|a| a.parse()).collect::<Result<_, _>>()?,
+        start_scene: args.start_scene,
     };
     let bar = ProgressBar::new(1000);
     bar.set_style(

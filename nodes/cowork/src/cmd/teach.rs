@@ -434,15 +434,7 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
             g.log_path("attentional_supervisor").display()
         )
     })?;
-    let before: BTreeSet<String> = ltm_in.schemas().map(|(_, sc)| compact(&sc.head.to_string())).collect();
-    let learned: Vec<Learned> = ltm_out
-        .schemas()
-        .filter(|(_, sc)| sc.kind.is_none() && !before.contains(&compact(&sc.head.to_string())))
-        .map(|(_, sc)| Learned {
-            subtask: compact(&sc.head.to_string()),
-            actions: sc.list.iter().map(|e| compact(&e.term.to_string())).collect(),
-        })
-        .collect();
+    let learned = learned_between(&ltm_in, &ltm_out);
     let primitives = if db_file.is_file() {
         cowork_manager::Database::load(&db_file)
             .with_context(|| format!("the database {}", db_file.display()))?
@@ -467,6 +459,19 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         warnings,
         feed: fed,
     })
+}
+
+/// The subtasks `after` holds that `before` does not: what a teaching added to an LTM.
+pub fn learned_between(before: &Ltm, after: &Ltm) -> Vec<Learned> {
+    let known: BTreeSet<String> = before.schemas().map(|(_, sc)| compact(&sc.head.to_string())).collect();
+    after
+        .schemas()
+        .filter(|(_, sc)| sc.kind.is_none() && !known.contains(&compact(&sc.head.to_string())))
+        .map(|(_, sc)| Learned {
+            subtask: compact(&sc.head.to_string()),
+            actions: sc.list.iter().map(|e| compact(&e.term.to_string())).collect(),
+        })
+        .collect()
 }
 
 fn compact(s: &str) -> String {

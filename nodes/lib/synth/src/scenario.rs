@@ -119,6 +119,10 @@ pub struct SynthOptions {
     /// left the arm and the objects, so the bags replay one after the other into one simulator
     /// (`cowork teach --bag A --bag B`).
     pub after: Vec<Scenario>,
+    /// Kinesthetic scenarios: the scene file the demonstration starts from instead of the
+    /// scenario's own (`config_dir/scenes/...`): the arm's `initial_joints_deg` and the objects
+    /// where a running graph has them (the teacher shows an open subtask mid-task, Fig. 5.23).
+    pub start_scene: Option<PathBuf>,
 }
 
 impl Default for SynthOptions {
@@ -131,6 +135,7 @@ impl Default for SynthOptions {
             config_dir: PathBuf::from("config"),
             vary_teacher: false,
             after: Vec::new(),
+            start_scene: None,
         }
     }
 }
@@ -225,8 +230,13 @@ pub struct SynthSummary {
 /// Loads the robot, the scenario's scene and the simulator parameters of `lwr_sim` (the
 /// `simulation` block of `config/lwr_sim.yaml` when present, else the defaults).
 pub fn load_simulator(config_dir: &Path, scene_file: &str) -> Result<Simulator> {
+    simulator_in(config_dir, &config_dir.join("scenes").join(scene_file))
+}
+
+/// A simulator of the scene file `scene` with the robot and parameters of `config_dir`.
+fn simulator_in(config_dir: &Path, scene: &Path) -> Result<Simulator> {
     let model = RobotModel::from_urdf_file(config_dir.join("robot/lwr4plus.urdf"))?;
-    let scene = Scene::from_file(&config_dir.join("scenes").join(scene_file))?;
+    let scene = Scene::from_file(scene)?;
     let params = lwr_sim_params(&config_dir.join("lwr_sim.yaml"))?;
     Ok(Simulator::new(model, scene, params)?)
 }
@@ -275,7 +285,17 @@ pub fn synthesize(
         Some(d) => check_duration(d)?,
         None => scenario.default_duration_s(options.seed)?,
     };
-    let mut sim = load_simulator(&options.config_dir, scenario.scene_file())?;
+    let mut sim = match &options.start_scene {
+        Some(scene) if scenario.demonstration().is_some() => simulator_in(&options.config_dir, scene)?,
+        Some(scene) => {
+            return Err(SynthError::BadOption {
+                option: "start_scene",
+                value: scene.display().to_string(),
+                reason: format!("{scenario} is not a kinesthetic demonstration"),
+            });
+        }
+        None => load_simulator(&options.config_dir, scenario.scene_file())?,
+    };
     if !options.after.is_empty() {
         if scenario.demonstration().is_none() {
             return Err(SynthError::BadOption {

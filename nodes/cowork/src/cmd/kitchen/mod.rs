@@ -33,6 +33,16 @@
 //! success additionally needs the supervisor to stop the running action, the bottle to stay
 //! within 2 cm while stopped, and an action command after `repeat` ([`closed_bottle`]).
 //!
+//! `tea-reuse` (Table 5.6, Fig. 5.23): per trial, without reuse the teacher shows add(water)
+//! and add(tea) of prepareTea in one session (as `coffee`); with reuse the whole graph executes
+//! prepareTea with the LTM and primitives learned in `coffee` (`config/learned`): the robot
+//! carries out add(water) with the bottle moved, the supervisor reaches add(tea), which nobody
+//! taught, and waits; the seed's teacher then shows add(tea) from where the arm and the objects
+//! are ([`open_subtask`]: `teach`, guiding, `done`, into the same lwr_sim, manager and
+//! supervisor), and the task is accomplished. Success = both teachings complete, the bottle
+//! poured over the cup by the robot and the tea box by the teacher's demonstration, both back
+//! upright, nothing else moved. Teaching times: the demonstrations' lengths.
+//!
 //! In every kitchen trial, unless `--no-person`, a person drawn from the seed walks up to the
 //! table, reaches once into the workspace near the cup and leaves ([`passer_by`]): drawn in the
 //! depth image and tracked by the observer, so the robot slows down and avoids; the trial
@@ -47,26 +57,30 @@ use anyhow::{Context, Result, bail};
 use cowork_graph::Graph;
 use cowork_msgs::std_msgs::String as RosString;
 use cowork_msgs::topics::{self, Delivery};
-use cowork_ros::{NodeConfig, RosNode, shutdown};
+use cowork_msgs::msg::{ActionCommand, HumanState, ObjectStream, RobotStream, Skeleton, WorldObject, WorldState};
+use cowork_msgs::sensor_msgs::JointState;
+use cowork_ros::{NodeConfig, Publisher, RosNode, Subscription, shutdown};
 use cowork_sim::Scene;
 use cowork_synth::{Scenario, SynthOptions};
 use serde::Serialize;
 
 use super::experiment::ExperimentArgs;
-use super::teach::{TeachSetup, Taught, teach};
+use super::teach::{Learned, TeachSetup, learned_between, teach};
 
 mod bottle_taker;
 mod closed_bottle;
 mod judge;
+mod open_subtask;
 mod passer_by;
 
 use bottle_taker::BottleTaker;
 use closed_bottle::{SuspendOutcome, Suspender};
 use judge::Judge;
+use open_subtask::OpenTeaching;
 use passer_by::{PasserBy, PersonOutcome};
 
 /// Kitchen experiments this runner knows.
-pub const NAMES: [&str; 4] = ["pouring", "coffee", "coffee-cooperative", "coffee-closed-bottle"];
+pub const NAMES: [&str; 5] = ["pouring", "coffee", "coffee-cooperative", "coffee-closed-bottle", "tea-reuse"];
 
 /// Thesis Table 5.4 (pourDrink), means over ten trials: (subtask, teaching s, execution s).
 const THESIS_POURING: [(&str, f64, f64); 3] = [("take(water)", 20.1, 31.0), ("pour(water)", 30.3, 46.5), ("pourDrink", 50.4, 77.5)];
@@ -101,11 +115,18 @@ struct Kitchen {
     thesis: &'static [(&'static str, f64, f64)],
     /// Default simulated time limit of the execution, s.
     limit_s: f64,
+    /// When the person passing by walks in, simulated s after the robot starts (uniform in
+    /// [from, to)): early enough that they arrive while the robot still works.
+    person_enters_s: (f64, f64),
     /// A scripted person takes over add(water) (`coffee-cooperative`).
     cooperative: bool,
     /// The bottle is closed: the person stops the robot over the cup, opens it, says `repeat`
     /// (`coffee-closed-bottle`).
     closed_bottle: bool,
+    /// `tea-reuse`: executed with the LTM and primitives learned in `coffee`
+    /// (`config/learned`), the open subtask taught when the robot asks for it by this
+    /// demonstration (Fig. 5.23); `demos` are then the whole task's teaching without reuse.
+    teach_open: Option<Scenario>,
 }
 
 const POURING: Kitchen = Kitchen {
@@ -116,8 +137,10 @@ const POURING: Kitchen = Kitchen {
     used: &[("bottle", 90.0)],
     thesis: &THESIS_POURING,
     limit_s: 150.0,
+    person_enters_s: (2.0, 14.0),
     cooperative: false,
     closed_bottle: false,
+    teach_open: None,
 };
 
 const COFFEE: Kitchen = Kitchen {
@@ -128,8 +151,10 @@ const COFFEE: Kitchen = Kitchen {
     used: &[("bottle", 90.0), ("coffee", 90.0), ("spoon", 60.0)],
     thesis: &THESIS_COFFEE,
     limit_s: 420.0,
+    person_enters_s: (3.0, 80.0),
     cooperative: false,
     closed_bottle: false,
+    teach_open: None,
 };
 
 /// Thesis Fig. 5.21 (cooperative prepareCoffee, one execution): the robot's add(coffee) and
@@ -144,8 +169,10 @@ const COFFEE_COOPERATIVE: Kitchen = Kitchen {
     used: &[("coffee", 90.0), ("spoon", 60.0)],
     thesis: &THESIS_COOPERATIVE,
     limit_s: 420.0,
+    person_enters_s: (3.0, 60.0),
     cooperative: true,
     closed_bottle: false,
+    teach_open: None,
 };
 
 /// Thesis Fig. 5.22: the person suspends the task (`stop`), opens the bottle and resumes it
@@ -155,6 +182,30 @@ const COFFEE_CLOSED_BOTTLE: Kitchen = Kitchen {
     closed_bottle: true,
     ..COFFEE
 };
+
+/// Thesis Table 5.6 (prepareTea, five teaching sessions each): (subtask, teaching s without
+/// reuse, teaching s with add(water) reused; NaN: already learned).
+const THESIS_TEA: [(&str, f64, f64); 3] = [("add(water)", 50.1, f64::NAN), ("add(tea)", 34.1, 35.6), ("prepareTea", 84.2, 35.6)];
+
+/// Thesis Sec. 5.2.3, Fig. 5.23: prepareTea. Without reuse the teacher shows add(water) and
+/// add(tea) in one session; with reuse the robot executes add(water) learned in `coffee` and
+/// waits for the demonstration of add(tea) only. `thesis` here: teaching s without / with reuse.
+const TEA_REUSE: Kitchen = Kitchen {
+    task: "prepareTea",
+    table: "Table 5.6 (prepareTea teaching time, without / with add(water) reused)",
+    demos: &[Scenario::KinestheticPour, Scenario::KinestheticTea],
+    moved: &[("bottle", BOTTLE_X, BOTTLE_Y)],
+    used: &[("bottle", 90.0), ("tea", 80.0)],
+    thesis: &THESIS_TEA,
+    limit_s: 300.0,
+    person_enters_s: (3.0, 20.0),
+    cooperative: false,
+    closed_bottle: false,
+    teach_open: Some(Scenario::KinestheticTea),
+};
+
+/// What `tea-reuse` executes with: learned in `coffee` (`launch_scripts/teach.sh`).
+const LEARNED_IN_COFFEE: (&str, &str) = ("config/learned/kitchen.learned.schema", "config/learned/primitives");
 
 /// The scene object the person takes in `coffee-cooperative`, and its task name.
 const PERSON_OBJECT: (&str, &str) = ("bottle", "water");
@@ -206,6 +257,8 @@ pub struct KitchenTrial {
     pub teaching_s: f64,
     /// Teaching time per subtask: its first segment's start to its last segment's end, s.
     pub teaching_subtasks: BTreeMap<String, f64>,
+    /// Each demonstration of the teaching session and its length, s.
+    pub demonstrations_s: Vec<(String, f64)>,
     /// Wall time of teaching and execution, s.
     pub wall_s: f64,
     /// Where the moved objects stood during execution (x, y base frame, m).
@@ -223,6 +276,8 @@ pub struct KitchenTrial {
     pub replanned_to: Option<String>,
     /// `coffee-closed-bottle`: the stop, the stillness and the resumption.
     pub suspension: Option<SuspendOutcome>,
+    /// `tea-reuse`: the open subtask taught during the execution.
+    pub open_teaching: Option<OpenTeaching>,
 }
 
 /// The run.
@@ -263,6 +318,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
         "coffee" => &COFFEE,
         "coffee-cooperative" => &COFFEE_COOPERATIVE,
         "coffee-closed-bottle" => &COFFEE_CLOSED_BOTTLE,
+        "tea-reuse" => &TEA_REUSE,
         _ => &POURING,
     };
     let scene = Scene::from_file(Path::new("config/scenes/kitchen.yaml")).context("config/scenes/kitchen.yaml (run from the repository root)")?;
@@ -313,6 +369,23 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
                 ),
                 None => println!("  nobody passed by (--no-person)"),
             }
+        }
+        if kitchen.teach_open.is_some() {
+            println!(
+                "  teaching without reuse: {} = {:.1} s; with reuse: {}",
+                t.demonstrations_s.iter().map(|(d, l)| format!("{d} {l:.1} s")).collect::<Vec<_>>().join(" + "),
+                t.teaching_s,
+                match &t.open_teaching {
+                    Some(o) => format!(
+                        "{} {} (the robot asked for it {} s after it started; replayed in {:.0} s wall)",
+                        o.scenario,
+                        o.teaching_s.map_or("not completed".into(), |s| format!("{s:.1} s")),
+                        o.asked_at_s.map_or("-".into(), |s| format!("{s:.1}")),
+                        o.wall_s
+                    ),
+                    None => "the robot never asked for a demonstration".into(),
+                }
+            );
         }
         if kitchen.cooperative {
             match (&t.replanned_to, t.replanning_latency_s) {
@@ -378,6 +451,17 @@ fn summarise(name: &str, kitchen: &Kitchen, trials: Vec<KitchenTrial>) -> Kitche
             summary.insert("person_cost_s_median".into(), m);
         }
     }
+    // Table 5.6: each demonstration's length without reuse, the open subtask's with reuse.
+    for (i, &(sub, _, _)) in kitchen.thesis.iter().enumerate().take(kitchen.demos.len()) {
+        if kitchen.teach_open.is_some()
+            && let Some(m) = median(trials.iter().filter_map(|t| t.demonstrations_s.get(i).map(|d| d.1)).collect())
+        {
+            summary.insert(format!("{sub}_demonstration_s_median"), m);
+        }
+    }
+    if let Some(m) = median(trials.iter().filter_map(|t| t.open_teaching.as_ref().and_then(|o| o.teaching_s)).collect()) {
+        summary.insert("reuse_teaching_s_median".into(), m);
+    }
     let resumed: Vec<f64> = trials.iter().filter_map(|t| t.suspension.as_ref().and_then(|s| s.resume_latency_s)).collect();
     if let Some(m) = median(resumed) {
         summary.insert("resume_latency_s_median".into(), m);
@@ -388,6 +472,9 @@ fn summarise(name: &str, kitchen: &Kitchen, trials: Vec<KitchenTrial>) -> Kitche
 fn print_table(run: &KitchenRun, kitchen: &Kitchen) {
     let get = |k: &str| run.summary.get(k).copied();
     let f = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1}"));
+    if kitchen.teach_open.is_some() {
+        return print_reuse_table(run, kitchen);
+    }
     println!("\n{}, medians over {} trials, simulated s:", kitchen.table, run.trials.len());
     println!("| | teaching, thesis | teaching, ours | execution, thesis | execution, ours |");
     println!("|---|---|---|---|---|");
@@ -424,6 +511,25 @@ fn print_table(run: &KitchenRun, kitchen: &Kitchen) {
     );
 }
 
+/// Table 5.6: teaching time without and with reuse (medians of the demonstrations' lengths).
+fn print_reuse_table(run: &KitchenRun, kitchen: &Kitchen) {
+    let get = |k: &str| run.summary.get(k).copied();
+    let f = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.1}"));
+    let without = get("teaching_s_median");
+    let with = get("reuse_teaching_s_median");
+    println!("\n{}, medians over {} trials, simulated s:", kitchen.table, run.trials.len());
+    println!("| teaching | without reuse, thesis | without reuse, ours | with reuse, thesis | with reuse, ours |");
+    println!("|---|---|---|---|---|");
+    let (water, tea, task) = (kitchen.thesis[0], kitchen.thesis[1], kitchen.thesis[2]);
+    println!("| {} | {:.1} | {} | − | − (learned in coffee) |", water.0, water.1, f(get(&format!("{}_demonstration_s_median", water.0))));
+    println!("| {} | {:.1} | {} | {:.1} | {} |", tea.0, tea.1, f(get(&format!("{}_demonstration_s_median", tea.0))), tea.2, f(with));
+    println!("| {} | {:.1} | {} | {:.1} | {} |", task.0, task.1, f(without), task.2, f(with));
+    let saving = without.zip(with).map_or("-".into(), |(a, b)| format!("{:.0} %", 100.0 * (1.0 - b / a)));
+    println!("| time saved by reuse | | | {:.0} % | {saving} |", 100.0 * (1.0 - task.2 / task.1));
+    println!("| robot's add(water) with reuse, execution median | | | | {} |", f(get("add(water)_s_median")));
+    println!("| success | | | 10/10 | {}/{} |", get("successes").unwrap_or(0.0) as usize, run.trials.len());
+}
+
 /// Positions for `seed` of the objects `kitchen` moves: each uniform in its box, clear of every
 /// other object (where it stands, or where an earlier draw put it).
 fn object_positions(kitchen: &Kitchen, scene: &Scene, seed: u64) -> Result<BTreeMap<String, [f64; 2]>> {
@@ -455,6 +561,18 @@ fn object_positions(kitchen: &Kitchen, scene: &Scene, seed: u64) -> Result<BTree
         out.insert(name.to_owned(), p);
     }
     Ok(out)
+}
+
+/// Copies the files of `from` into `to` (created; one level, as a primitive database).
+fn copy_dir(from: &Path, to: &Path) -> Result<()> {
+    std::fs::create_dir_all(to).with_context(|| format!("creating {}", to.display()))?;
+    for e in std::fs::read_dir(from).with_context(|| format!("reading {} (taught by launch_scripts/teach.sh)", from.display()))? {
+        let e = e?;
+        if e.file_type()?.is_file() {
+            std::fs::copy(e.path(), to.join(e.file_name())).with_context(|| format!("copying {}", e.path().display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// `subtask(take,water)` → `take(water)`.
@@ -538,6 +656,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         subtasks: BTreeMap::new(),
         teaching_s: taught.demonstration_s,
         teaching_subtasks,
+        demonstrations_s: kitchen.demos.iter().map(|d| d.to_string()).zip(taught.bag_s.iter().copied()).collect(),
         wall_s: 0.0,
         placed: BTreeMap::new(),
         segments,
@@ -546,6 +665,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         replanning_latency_s: None,
         replanned_to: None,
         suspension: None,
+        open_teaching: None,
     };
     let lost = taught.unattached();
     if !lost.is_empty() {
@@ -569,45 +689,164 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
     }
     let scene_path = dir.join("kitchen.yaml");
     std::fs::write(&scene_path, serde_yaml_ng::to_string(&exec_scene)?).with_context(|| format!("writing {}", scene_path.display()))?;
-    execute(args, kitchen, &setup, &taught, &scene_path, &dir, k, &mut trial)?;
+    if kitchen.teach_open.is_some() {
+        // With reuse: what was learned in `coffee`, on a copy of its database (the open
+        // subtask's teaching extends it).
+        let database_dir = dir.join("reuse-primitives");
+        copy_dir(Path::new(LEARNED_IN_COFFEE.1), &database_dir)?;
+        let ltm = |p: &Path| cowork_supervisor::Ltm::load(p).with_context(|| format!("the LTM {}", p.display()));
+        let learned = learned_between(&ltm(&setup.ltm)?, &ltm(Path::new(LEARNED_IN_COFFEE.0))?);
+        let knowledge = Knowledge { ltm: Path::new(LEARNED_IN_COFFEE.0), database_dir: &database_dir, learned: &learned };
+        execute(args, kitchen, &knowledge, &scene_path, &dir, k, &mut trial)?;
+    } else {
+        let knowledge = Knowledge { ltm: &setup.ltm_out, database_dir: &setup.database_dir, learned: &taught.learned };
+        execute(args, kitchen, &knowledge, &scene_path, &dir, k, &mut trial)?;
+    }
     trial.wall_s = wall0.elapsed().as_secs_f64();
     Ok(trial)
 }
 
+/// What the runner reads and plays while a kitchen task executes: the world, the manager's
+/// events, the person passing by, the scripted people of `coffee-cooperative` and
+/// `coffee-closed-bottle`.
+struct ExecPump {
+    world: Subscription<WorldState>,
+    robot: Subscription<RobotStream>,
+    object_stream: Subscription<ObjectStream>,
+    supervisor_actions: Subscription<ActionCommand>,
+    joints: Subscription<JointState>,
+    human: Subscription<HumanState>,
+    skeleton: Publisher<Skeleton>,
+    place: Publisher<WorldObject>,
+    speech: Publisher<RosString>,
+    person: Option<BottleTaker>,
+    suspender: Option<Suspender>,
+    passer_by: PasserBy,
+    judge: Judge,
+    /// The newest `/lwr/world` and `/joint_states` (the state an open subtask is taught from).
+    last_world: Option<WorldState>,
+    last_joints: Option<JointState>,
+    /// (sim t, label, done, failed, reason) of the manager's action events.
+    events: Vec<(f64, String, bool, bool, String)>,
+    /// Simulated time the robot started its first action.
+    t_start: Option<f64>,
+    /// The person's object left the workspace (`coffee-cooperative`), simulated s.
+    t_gone: Option<f64>,
+    /// After the task: the world is watched until then (simulated s).
+    settle_until: Option<f64>,
+}
+
+impl ExecPump {
+    /// Reads everything new, answers with the scripted people, sends the passer-by's frames due;
+    /// returns the newest `/robot_stream` stamp (how far the manager has got, simulated s).
+    fn pump(&mut self, trial: &mut KitchenTrial) -> Result<Option<f64>> {
+        while let Some(w) = self.world.take() {
+            let now = w.header.stamp.to_secs_f64();
+            if let Some(p) = self.person.as_mut() {
+                for (placement, said) in p.step(&w, self.t_start, now) {
+                    if let Some(o) = placement {
+                        self.place.publish(o)?;
+                    }
+                    if let Some(text) = said {
+                        self.speech.publish(RosString { data: text.into() })?;
+                    }
+                }
+            }
+            if let Some(s) = self.suspender.as_mut()
+                && let Some(text) = s.step(&w, now)
+            {
+                self.speech.publish(RosString { data: text.into() })?;
+            }
+            self.last_world = Some(w.clone());
+            self.judge.on_world(w);
+        }
+        while let Some(m) = self.joints.take() {
+            self.passer_by.on_joint_state(&m);
+            self.last_joints = Some(m);
+        }
+        while let Some(m) = self.human.take() {
+            self.passer_by.on_human_state(&m, self.t_start.is_some() && self.settle_until.is_none());
+        }
+        if let Some(t0) = self.t_start {
+            let skeleton = &self.skeleton;
+            self.passer_by.frames(t0, self.judge.last_t.unwrap_or(t0), |m| Ok(skeleton.publish(m.clone())?))?;
+        }
+        while let Some(o) = self.object_stream.take() {
+            if self.t_gone.is_none() && o.objects.iter().any(|x| x.name == PERSON_OBJECT.1 && !x.visible) {
+                self.t_gone = Some(o.header.stamp.to_secs_f64());
+            }
+        }
+        while let Some(a) = self.supervisor_actions.take() {
+            let t = a.header.stamp.to_secs_f64();
+            if let Some(s) = self.suspender.as_mut() {
+                s.on_action(t, &a.label, a.stop);
+            }
+            if let Some(gone) = self.t_gone
+                && trial.replanned_to.is_none()
+                && !a.stop
+                && t >= gone
+            {
+                trial.replanning_latency_s = Some(t - gone);
+                trial.replanned_to = Some(a.label.clone());
+            }
+        }
+        let mut newest = None;
+        while let Some(r) = self.robot.take() {
+            let t = r.header.stamp.to_secs_f64();
+            newest = Some(t);
+            for e in &r.events {
+                if self.t_start.is_none() && !e.done && !e.failed {
+                    self.t_start = Some(t);
+                }
+                self.events.push((t, e.label.clone(), e.done, e.failed, e.reason.clone()));
+            }
+        }
+        Ok(newest)
+    }
+}
+
+/// Where the robot's knowledge comes from in an execution.
+struct Knowledge<'a> {
+    /// The LTM the supervisor loads.
+    ltm: &'a Path,
+    /// The primitive database the manager loads (extended by an open subtask's teaching).
+    database_dir: &'a Path,
+    /// Subtasks whose actions the execution is timed by.
+    learned: &'a [Learned],
+}
+
 #[allow(clippy::too_many_arguments)]
-fn execute(
-    args: &ExperimentArgs,
-    kitchen: &Kitchen,
-    setup: &TeachSetup,
-    taught: &Taught,
-    scene: &Path,
-    dir: &Path,
-    k: u32,
-    trial: &mut KitchenTrial,
-) -> Result<()> {
+fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, scene: &Path, dir: &Path, k: u32, trial: &mut KitchenTrial) -> Result<()> {
     let domain = cowork_graph::private_domain(120, 100, 2 * k + 1);
     let limit_s = args.time_limit.unwrap_or(kitchen.limit_s);
     let wall_limit = args.startup_timeout + 4.0 * limit_s / args.rate + 60.0;
     let dur = format!("{wall_limit:.0}");
     let s = |p: &Path| p.display().to_string();
     let mut node = RosNode::new("cowork_experiment", &NodeConfig { use_sim_time: true, domain_id: Some(domain), ..NodeConfig::default() })?;
-    let world = node.subscribe(&topics::WORLD)?;
-    let robot = node.subscribe(&topics::ROBOT_STREAM)?;
     let distances = node.subscribe(&topics::FDED_DISTANCES)?;
-    let object_stream = node.subscribe(&topics::OBJECT_STREAM.reading(Delivery::Reliable { depth: 100 }))?;
-    let supervisor_actions = node.subscribe(&topics::SUPERVISOR_ACTION.reading(Delivery::Reliable { depth: 100 }))?;
-    let joints = node.subscribe(&topics::JOINT_STATES.reading(Delivery::BestEffort { depth: 2000 }))?;
-    let human = node.subscribe(&topics::HUMAN_STATE.reading(Delivery::Reliable { depth: 100 }))?;
-    let skeleton = node.advertise(&topics::SKELETON)?;
-    let place = node.advertise(&topics::PLACE_OBJECT)?;
-    let speech = node.advertise(&topics::SPEECH_COMMAND)?;
-    let mut person = kitchen.cooperative.then(BottleTaker::default);
-    let mut suspender = kitchen.closed_bottle.then(Suspender::default);
-    let table_top_z = Scene::from_file(scene).with_context(|| format!("reading {}", scene.display()))?.table_top_z();
+    let exec_scene = Scene::from_file(scene).with_context(|| format!("reading {}", scene.display()))?;
     let model = cowork_robot::RobotModel::from_urdf_file("config/robot/lwr4plus.urdf").context("config/robot/lwr4plus.urdf")?;
-    let mut passer_by = PasserBy::new(trial.seed, table_top_z, !args.no_person, model)?;
-    // Bottle out of the workspace (the manager says so), then the next action command.
-    let mut t_gone: Option<f64> = None;
+    let mut pump = ExecPump {
+        world: node.subscribe(&topics::WORLD)?,
+        robot: node.subscribe(&topics::ROBOT_STREAM)?,
+        object_stream: node.subscribe(&topics::OBJECT_STREAM.reading(Delivery::Reliable { depth: 100 }))?,
+        supervisor_actions: node.subscribe(&topics::SUPERVISOR_ACTION.reading(Delivery::Reliable { depth: 100 }))?,
+        joints: node.subscribe(&topics::JOINT_STATES.reading(Delivery::BestEffort { depth: 2000 }))?,
+        human: node.subscribe(&topics::HUMAN_STATE.reading(Delivery::Reliable { depth: 100 }))?,
+        skeleton: node.advertise(&topics::SKELETON)?,
+        place: node.advertise(&topics::PLACE_OBJECT)?,
+        speech: node.advertise(&topics::SPEECH_COMMAND)?,
+        person: kitchen.cooperative.then(BottleTaker::default),
+        suspender: kitchen.closed_bottle.then(Suspender::default),
+        passer_by: PasserBy::new(trial.seed, exec_scene.table_top_z(), (!args.no_person).then_some(kitchen.person_enters_s), model)?,
+        judge: Judge::new(kitchen),
+        last_world: None,
+        last_joints: None,
+        events: Vec::new(),
+        t_start: None,
+        t_gone: None,
+        settle_until: None,
+    };
     let mut g = Graph::new(domain, &dir.join("exec"))?;
     let bin = |b: &str| args.bin_dir.join(b);
     if let Some(rec) = &args.record {
@@ -616,7 +855,13 @@ fn execute(
         let me = std::env::current_exe().context("locating the cowork binary for the recorder")?;
         g.spawn("recorder", &me, &["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), dur.clone()])?;
     }
-    g.spawn("lwr_sim", &bin("lwr_sim"), &["--scene".into(), s(scene), "--rate".into(), args.rate.to_string(), "--duration".into(), format!("{:.0}", limit_s + 60.0)])?;
+    // The runner stops lwr_sim; its own limit is far beyond the trial's (counted from the first action).
+    let mut sim_args = vec!["--scene".into(), s(scene), "--rate".into(), args.rate.to_string(), "--duration".into(), format!("{:.0}", limit_s + 600.0)];
+    if kitchen.teach_open.is_some() {
+        // The open subtask's teacher is replayed at its stamps (the clock waits for it).
+        sim_args.push("--follow-wrench-stamps".into());
+    }
+    g.spawn("lwr_sim", &bin("lwr_sim"), &sim_args)?;
     let args_of = |v: &[&str]| v.iter().map(|a| (*a).to_owned()).collect::<Vec<String>>();
     g.spawn("fded_distance", &bin("fded_distance"), &args_of(&["--params", "config/fded_distance.yaml", "--use-sim-time", "--backend", "cpu", "--duration", dur.as_str()]))?;
     g.spawn("human_observer", &bin("human_observer"), &args_of(&["--params", s(&args.observer_params).as_str(), "--use-sim-time", "--duration", dur.as_str()]))?;
@@ -629,76 +874,20 @@ fn execute(
         }
         std::thread::sleep(Duration::from_millis(10));
     }
-    g.spawn("robot_manager", &bin("robot_manager"), &args_of(&["--use-sim-time", "--database-dir", s(&setup.database_dir).as_str(), "--duration", dur.as_str()]))?;
+    g.spawn("robot_manager", &bin("robot_manager"), &args_of(&["--use-sim-time", "--database-dir", s(knowledge.database_dir).as_str(), "--duration", dur.as_str()]))?;
+    let saved_ltm = dir.join("executed.learned.schema");
     g.spawn(
         "attentional_supervisor",
         &bin("attentional_supervisor"),
-        &args_of(&["--ltm", s(&setup.ltm_out).as_str(), "--task", kitchen.task, "--use-sim-time", "--duration", dur.as_str()]),
+        &args_of(&["--ltm", s(knowledge.ltm).as_str(), "--save-ltm", s(&saved_ltm).as_str(), "--task", kitchen.task, "--use-sim-time", "--duration", dur.as_str()]),
     )?;
-    let mut judge = Judge::new(kitchen);
-    // (sim t, label, done, failed, reason)
-    let mut events: Vec<(f64, String, bool, bool, String)> = Vec::new();
-    let mut t_start: Option<f64> = None;
     let accomplished = |g: &Graph| g.log("attentional_supervisor").contains("task accomplished");
     let mut failure = String::new();
-    let mut settle_until: Option<f64> = None;
+    // The open subtask's demonstration: sim time the clock stops at after it (lwr_sim follows
+    // the teacher's stamps), once played.
+    let mut taught_until: Option<f64> = None;
     loop {
-        while let Some(w) = world.take() {
-            if let Some(p) = person.as_mut() {
-                let now = w.header.stamp.to_secs_f64();
-                for (placement, said) in p.step(&w, t_start, now) {
-                    if let Some(o) = placement {
-                        place.publish(o)?;
-                    }
-                    if let Some(text) = said {
-                        speech.publish(RosString { data: text.into() })?;
-                    }
-                }
-            }
-            if let Some(s) = suspender.as_mut()
-                && let Some(text) = s.step(&w, w.header.stamp.to_secs_f64())
-            {
-                speech.publish(RosString { data: text.into() })?;
-            }
-            judge.on_world(w);
-        }
-        while let Some(m) = joints.take() {
-            passer_by.on_joint_state(&m);
-        }
-        while let Some(m) = human.take() {
-            passer_by.on_human_state(&m, t_start.is_some() && settle_until.is_none());
-        }
-        if let Some(t0) = t_start {
-            passer_by.frames(t0, judge.last_t.unwrap_or(t0), |m| Ok(skeleton.publish(m.clone())?))?;
-        }
-        while let Some(o) = object_stream.take() {
-            if t_gone.is_none() && o.objects.iter().any(|x| x.name == PERSON_OBJECT.1 && !x.visible) {
-                t_gone = Some(o.header.stamp.to_secs_f64());
-            }
-        }
-        while let Some(a) = supervisor_actions.take() {
-            let t = a.header.stamp.to_secs_f64();
-            if let Some(s) = suspender.as_mut() {
-                s.on_action(t, &a.label, a.stop);
-            }
-            if let Some(gone) = t_gone
-                && trial.replanned_to.is_none()
-                && !a.stop
-                && t >= gone
-            {
-                trial.replanning_latency_s = Some(t - gone);
-                trial.replanned_to = Some(a.label.clone());
-            }
-        }
-        while let Some(r) = robot.take() {
-            let t = r.header.stamp.to_secs_f64();
-            for e in &r.events {
-                if t_start.is_none() && !e.done && !e.failed {
-                    t_start = Some(t);
-                }
-                events.push((t, e.label.clone(), e.done, e.failed, e.reason.clone()));
-            }
-        }
+        pump.pump(trial)?;
         if let Err(e) = g.check_alive() {
             failure = format!("node died: {e}");
             break;
@@ -707,16 +896,56 @@ fn execute(
             failure = "interrupted (Ctrl-C)".into();
             break;
         }
-        let now = judge.last_t.unwrap_or(0.0);
-        let elapsed = t_start.map_or(0.0, |s| now - s);
-        if let Some(until) = settle_until {
+        let now = pump.judge.last_t.unwrap_or(0.0);
+        let elapsed = pump.t_start.map_or(0.0, |s| now - s);
+        if let Some(until) = pump.settle_until {
             if now >= until {
                 break;
             }
         } else if accomplished(&g) {
-            // The world half a second after the task: still released upright.
-            settle_until = Some(now + 0.5);
+            // The world half a second after the task: still released upright (after an open
+            // subtask's demonstration the clock has already run 3 s past it, and stops there).
+            pump.settle_until = Some(if taught_until.is_some() { now } else { now + 0.5 });
             trial.duration_s = elapsed;
+        } else if let Some(end) = taught_until
+            && now >= end - 0.05
+        {
+            failure = format!("the task was not accomplished after the demonstration of its open subtask (the clock stopped at {end:.1} s)");
+            trial.duration_s = elapsed;
+            break;
+        }
+        if let Some(scenario) = kitchen.teach_open
+            && taught_until.is_none()
+            && pump.settle_until.is_none()
+            && g.log("attentional_supervisor").contains("waiting for a demonstration")
+        {
+            // Fig. 5.23: the robot waits; the teacher shows the open subtask from here.
+            let wall = Instant::now();
+            let mut taught = OpenTeaching { scenario: scenario.to_string(), asked_at_s: Some(elapsed), ..OpenTeaching::default() };
+            let (Some(w), Some(j)) = (&pump.last_world, &pump.last_joints) else { bail!("no /lwr/world or /joint_states before the open subtask") };
+            let start = open_subtask::scene_now(&exec_scene, w, j).context("the state the open subtask is taught from")?;
+            let bag = open_subtask::synthesise_from(scenario, trial.seed, &start, dir)?;
+            let mut poll = || -> Result<Option<f64>, String> {
+                if shutdown::requested() {
+                    return Err("interrupted (Ctrl-C)".into());
+                }
+                g.check_alive().map_err(|e| e.to_string())?;
+                pump.pump(trial).map_err(|e| format!("{e:#}"))
+            };
+            match open_subtask::play(&mut node, &bag, args.rate, &mut poll) {
+                Ok(length) => {
+                    taught.teaching_s = Some(length);
+                    taught_until = Some(node.now().to_secs_f64());
+                }
+                Err(e) => {
+                    failure = format!("teaching the open subtask: {e:#}");
+                    taught.wall_s = wall.elapsed().as_secs_f64();
+                    trial.open_teaching = Some(taught);
+                    break;
+                }
+            }
+            taught.wall_s = wall.elapsed().as_secs_f64();
+            trial.open_teaching = Some(taught);
         }
         if elapsed > limit_s {
             failure = format!("time limit {limit_s} s reached");
@@ -730,7 +959,7 @@ fn execute(
         std::thread::sleep(Duration::from_millis(4));
     }
     g.stop();
-    let outcome = passer_by.outcome();
+    let outcome = pump.passer_by.outcome();
     trial.min_distance_m = outcome.min_distance_m;
     trial.collisions = outcome.collisions;
     if outcome.collisions > 0 {
@@ -741,14 +970,14 @@ fn execute(
     let span = |labels: &[String]| -> SubtaskTime {
         // Earliest start to latest end of its actions (add(water) and add(coffee) may run in
         // either order, so the taught order is not the executed one).
-        let first = events.iter().filter(|e| labels.contains(&e.1) && !e.2 && !e.3).map(|e| e.0).reduce(f64::min);
-        let last = events.iter().filter(|e| labels.contains(&e.1) && e.2).map(|e| e.0).reduce(f64::max);
-        let all = labels.iter().all(|l| events.iter().any(|e| &e.1 == l && e.2));
+        let first = pump.events.iter().filter(|e| labels.contains(&e.1) && !e.2 && !e.3).map(|e| e.0).reduce(f64::min);
+        let last = pump.events.iter().filter(|e| labels.contains(&e.1) && e.2).map(|e| e.0).reduce(f64::max);
+        let all = labels.iter().all(|l| pump.events.iter().any(|e| &e.1 == l && e.2));
         // A time only for a subtask that completed: a stalled one has no execution time.
         SubtaskTime { time_s: first.zip(last).filter(|_| all).map(|(a, b)| b - a), success: all }
     };
     let mut behaviours: BTreeMap<String, Vec<String>> = BTreeMap::new();
-    for l in &taught.learned {
+    for l in knowledge.learned {
         let name = subtask_name(&l.subtask);
         trial.subtasks.insert(name.clone(), span(&l.actions));
         if let Some(beh) = behaviour_of(&name) {
@@ -764,12 +993,12 @@ fn execute(
     let accomplished_now = accomplished(&g);
     trial.subtasks.insert(
         kitchen.task.into(),
-        SubtaskTime { time_s: (accomplished_now && settle_until.is_some()).then_some(trial.duration_s), success: accomplished_now },
+        SubtaskTime { time_s: (accomplished_now && pump.settle_until.is_some()).then_some(trial.duration_s), success: accomplished_now },
     );
-    trial.failed_actions = events.iter().filter(|e| e.3).map(|e| format!("{}: {}", e.1, e.4)).collect();
-    trial.max_tilt_over_cup_deg = judge.max_tilt_over_cup.iter().map(|(n, t)| (n.clone(), t.to_degrees())).collect();
-    let mut verdict = judge.verdict();
-    if let Some(s) = suspender {
+    trial.failed_actions = pump.events.iter().filter(|e| e.3).map(|e| format!("{}: {}", e.1, e.4)).collect();
+    trial.max_tilt_over_cup_deg = pump.judge.max_tilt_over_cup.iter().map(|(n, t)| (n.clone(), t.to_degrees())).collect();
+    let mut verdict = pump.judge.verdict();
+    if let Some(s) = pump.suspender {
         let why = s.outcome.verdict();
         if !why.is_empty() {
             verdict = [verdict, why.join("; ")].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join("; ");

@@ -18,14 +18,17 @@ use nalgebra::Point3;
 use rand::Rng;
 use serde::Serialize;
 
-/// The kitchen's visit: in 3–40 s after the robot starts, one reach to a point above the table
-/// between the person's side and the cup (where the robot carries the bottle, the jar and the
-/// spoon), 15–30 cm above the table top.
-const KITCHEN_VISIT: Visit = Visit {
-    enter_s: (3.0, 40.0),
-    reaches: (1, 1),
-    target: |rng, sign, top| Point3::new(rng.random_range(0.45..0.65), sign * rng.random_range(0.05..0.30), top + rng.random_range(0.15..0.30)),
-};
+/// The kitchen's visit: walks in during `enter_s` (simulated s after the robot starts; each
+/// kitchen task sets it so that the person arrives while the robot still works), one reach to a
+/// point above the table between the person's side and the cup (where the robot carries the
+/// bottle, the jar and the spoon), 15–30 cm above the table top.
+fn kitchen_visit(enter_s: (f64, f64)) -> Visit {
+    Visit {
+        enter_s,
+        reaches: (1, 1),
+        target: |rng, sign, top| Point3::new(rng.random_range(0.45..0.65), sign * rng.random_range(0.05..0.30), top + rng.random_range(0.15..0.30)),
+    }
+}
 
 /// Skeleton frames per simulated second.
 const RATE_HZ: f64 = 120.0;
@@ -65,9 +68,13 @@ pub struct PasserBy {
 }
 
 impl PasserBy {
-    /// The person of `seed` (none with `present == false`), judged against `model`.
-    pub fn new(seed: u64, table_top_z: f64, present: bool, model: RobotModel) -> Result<Self> {
-        let people = if present { Some(visitor(seed, table_top_z, &KITCHEN_VISIT)?) } else { None };
+    /// The person of `seed`, walking in during `enter_s` (simulated s after the robot starts;
+    /// `None`: nobody comes, `--no-person`), judged against `model`.
+    pub fn new(seed: u64, table_top_z: f64, enter_s: Option<(f64, f64)>, model: RobotModel) -> Result<Self> {
+        let people = match enter_s {
+            Some(enter_s) => Some(visitor(seed, table_top_z, &kitchen_visit(enter_s))?),
+            None => None,
+        };
         Ok(Self {
             people,
             judge: Judge::new(model, cowork_people::DEFAULT_FLOOR_Z)?,
@@ -168,7 +175,7 @@ mod tests {
 
     #[test]
     fn the_slow_down_cost_integrates_one_minus_the_speed_ratio_while_executing() {
-        let mut p = PasserBy::new(1, 0.0, false, model()).expect("passer-by");
+        let mut p = PasserBy::new(1, 0.0, None, model()).expect("passer-by");
         let mut t = 0.0;
         for _ in 0..10 {
             p.on_human_state(&state(t, false, 0.3, false), true); // nobody: no cost
@@ -194,7 +201,7 @@ mod tests {
 
     #[test]
     fn the_person_is_sent_at_120_hz_of_simulated_time_and_a_late_runner_skips_frames() {
-        let mut p = PasserBy::new(3, 0.0, true, model()).expect("passer-by");
+        let mut p = PasserBy::new(3, 0.0, Some((3.0, 40.0)), model()).expect("passer-by");
         let enter = p.outcome().variant.expect("a person").enter_s;
         assert!((3.0..40.0).contains(&enter));
         let mut stamps = Vec::new();
