@@ -11,6 +11,9 @@ use cowork_ros::{Publisher, RosNode};
 
 use crate::{Error, Result};
 
+/// How far past a word's due time the clock may run before the word is said, s.
+const WORD_HOLD_S: f64 = 0.2;
+
 /// Gap of simulated time between two bags of one feed, s: the arm rests under a zero wrench.
 pub const BAG_GAP_S: f64 = 1.0;
 
@@ -203,8 +206,12 @@ impl TeachingFeed {
             let now = node.now().to_secs_f64();
             let mut progressed = false;
             // While a word is due, the clock goes no further than just past it (the teacher
-            // holds still there) until it is said.
-            let word_due = words.front().map_or(f64::INFINITY, |(d, _)| *d + 0.05);
+            // holds still there, at least 0.5 s either side) until it is said. Far enough past
+            // it that the follower's next report is stamped after it: the manager streams every
+            // other 50 Hz tick (0.04 s) and the clock stops at the last wrench (0.01 s apart); at
+            // 0.05 s a clock stopped at due + 0.04 waited for a report due at due + 0.04 + ε, and
+            // the teaching hung (tea-reuse seed 1, 2026-12-03).
+            let word_due = words.front().map_or(f64::INFINITY, |(d, _)| *d + WORD_HOLD_S);
             let cap = if paced { follower + follower_lead_s } else { f64::INFINITY };
             let horizon = (now + lead_s).min(cap).min(word_due);
             while let Some((due, _)) = wrenches.front()

@@ -57,11 +57,13 @@ use anyhow::{Context, Result, bail};
 use cowork_graph::Graph;
 use cowork_msgs::std_msgs::String as RosString;
 use cowork_msgs::topics::{self, Delivery};
-use cowork_msgs::msg::{ActionCommand, HumanState, ObjectStream, RobotStream, Skeleton, WorldObject, WorldState};
+use cowork_msgs::msg::{ActionCommand, HumanState, LinkDistances, ObjectStream, RobotStream, Skeleton, WorldObject, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_ros::{NodeConfig, Publisher, RosNode, Subscription, shutdown};
 use cowork_sim::Scene;
 use cowork_synth::{Scenario, SynthOptions};
+use cowork_experiment::judge::Series;
+use cowork_experiment::report::{ReportTrial, write_report};
 use serde::Serialize;
 
 use super::experiment::ExperimentArgs;
@@ -278,6 +280,9 @@ pub struct KitchenTrial {
     pub suspension: Option<SuspendOutcome>,
     /// `tea-reuse`: the open subtask taught during the execution.
     pub open_teaching: Option<OpenTeaching>,
+    /// The execution's time series (for `--report`; not in the JSON).
+    #[serde(skip)]
+    pub series: Series,
 }
 
 /// The run.
@@ -301,9 +306,6 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
     }
     if !(args.rate.is_finite() && args.rate > 0.0) {
         bail!("--rate {} must be > 0", args.rate);
-    }
-    if args.report.is_some() {
-        bail!("{}: --report is not supported by the kitchen experiments yet; use --json, and --record DIR to open a trial in Foxglove", args.name);
     }
     if args.scene.is_some() {
         bail!("{}: --scene is not supported (the kitchen scene is config/scenes/kitchen.yaml)", args.name);
@@ -404,7 +406,33 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
     }
     let run = summarise(&args.name, kitchen, trials);
     print_table(&run, kitchen);
+    if let Some(dir) = &args.report {
+        let reports: Vec<ReportTrial> = run.trials.iter().map(|t| report_trial(&args.name, kitchen, t)).collect();
+        write_report(dir, &format!("cowork experiment {} — {}", args.name, kitchen.table), &reports)?;
+        println!("report: {}", dir.join("index.html").display());
+    }
     Ok(())
+}
+
+/// A trial's row and plots in the HTML report.
+fn report_trial(name: &str, kitchen: &Kitchen, t: &KitchenTrial) -> ReportTrial {
+    let mut row = vec![
+        ("result".to_owned(), if t.success { "success".to_owned() } else { "FAILED".to_owned() }),
+        ("teaching s".to_owned(), format!("{:.1}", t.teaching_s)),
+    ];
+    for &(sub, _, _) in kitchen.thesis {
+        row.push((format!("{sub} s"), secs(t.subtasks.get(sub))));
+    }
+    if let Some(o) = &t.open_teaching {
+        row.push(("open subtask taught, s".to_owned(), o.teaching_s.map_or("-".into(), |s| format!("{s:.1}"))));
+    }
+    if let Some(p) = &t.person {
+        row.push(("closest to the person, m".to_owned(), p.min_distance_m.map_or("-".into(), |d| format!("{d:.3}"))));
+        row.push(("contacts".to_owned(), p.collisions.to_string()));
+        row.push(("person's cost, s".to_owned(), format!("{:.1}", p.slowed_cost_s)));
+    }
+    row.push(("reason".to_owned(), t.reason.clone()));
+    ReportTrial { title: format!("{name} seed {}", t.seed), row, series: t.series.clone() }
 }
 
 fn secs(s: Option<&SubtaskTime>) -> String {
@@ -666,6 +694,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         replanned_to: None,
         suspension: None,
         open_teaching: None,
+        series: Series::default(),
     };
     let lost = taught.unattached();
     if !lost.is_empty() {
@@ -711,6 +740,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
 /// `coffee-closed-bottle`.
 struct ExecPump {
     world: Subscription<WorldState>,
+    distances: Subscription<LinkDistances>,
     robot: Subscription<RobotStream>,
     object_stream: Subscription<ObjectStream>,
     supervisor_actions: Subscription<ActionCommand>,
@@ -757,8 +787,12 @@ impl ExecPump {
             {
                 self.speech.publish(RosString { data: text.into() })?;
             }
+            self.passer_by.on_world(&w);
             self.last_world = Some(w.clone());
             self.judge.on_world(w);
+        }
+        while let Some(m) = self.distances.take() {
+            self.passer_by.on_distances(&m);
         }
         while let Some(m) = self.joints.take() {
             self.passer_by.on_joint_state(&m);
@@ -823,11 +857,11 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
     let dur = format!("{wall_limit:.0}");
     let s = |p: &Path| p.display().to_string();
     let mut node = RosNode::new("cowork_experiment", &NodeConfig { use_sim_time: true, domain_id: Some(domain), ..NodeConfig::default() })?;
-    let distances = node.subscribe(&topics::FDED_DISTANCES)?;
     let exec_scene = Scene::from_file(scene).with_context(|| format!("reading {}", scene.display()))?;
     let model = cowork_robot::RobotModel::from_urdf_file("config/robot/lwr4plus.urdf").context("config/robot/lwr4plus.urdf")?;
     let mut pump = ExecPump {
         world: node.subscribe(&topics::WORLD)?,
+        distances: node.subscribe(&topics::FDED_DISTANCES)?,
         robot: node.subscribe(&topics::ROBOT_STREAM)?,
         object_stream: node.subscribe(&topics::OBJECT_STREAM.reading(Delivery::Reliable { depth: 100 }))?,
         supervisor_actions: node.subscribe(&topics::SUPERVISOR_ACTION.reading(Delivery::Reliable { depth: 100 }))?,
@@ -867,7 +901,7 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
     g.spawn("human_observer", &bin("human_observer"), &args_of(&["--params", s(&args.observer_params).as_str(), "--use-sim-time", "--duration", dur.as_str()]))?;
     g.spawn("ds_controller", &bin("ds_controller"), &args_of(&["--params", s(&args.ds_params).as_str(), "--use-sim-time", "--duration", dur.as_str()]))?;
     let until = Instant::now() + cowork_ros::duration_s(args.startup_timeout);
-    while distances.take().is_none() {
+    while pump.distances.take().is_none() {
         g.check_alive()?;
         if Instant::now() > until || shutdown::requested() {
             bail!("no /fded/distances after {} s (logs in {})", args.startup_timeout, g.log_dir().display());
@@ -966,6 +1000,7 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
         failure = [failure, format!("{} contact(s) with the person", outcome.collisions)].into_iter().filter(|s| !s.is_empty()).collect::<Vec<_>>().join("; ");
     }
     trial.person = Some(outcome);
+    trial.series = pump.passer_by.series().clone();
     // Subtask times from the manager's action events: first action started → last action done.
     let span = |labels: &[String]| -> SubtaskTime {
         // Earliest start to latest end of its actions (add(water) and add(coffee) may run in

@@ -7,10 +7,10 @@
 //! time the slow-down cost, from the observer's `/human/state`.
 
 use anyhow::Result;
-use cowork_experiment::judge::Judge;
+use cowork_experiment::judge::{Judge, Series};
 use cowork_experiment::plan::{Variant, Visit, visitor};
 use cowork_msgs::builtin_interfaces::Time;
-use cowork_msgs::msg::{HumanState, Skeleton};
+use cowork_msgs::msg::{HumanState, LinkDistances, Skeleton, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_people::{MessageMeta, Timeline};
 use cowork_robot::RobotModel;
@@ -126,8 +126,24 @@ impl PasserBy {
         self.judge.on_joint_state(m);
     }
 
+    /// `/lwr/world` (the tool's speed, for the report).
+    pub fn on_world(&mut self, m: &WorldState) {
+        self.judge.on_world(m);
+    }
+
+    /// `/fded/distances` (the measured distance, for the report).
+    pub fn on_distances(&mut self, m: &LinkDistances) {
+        self.judge.on_distances(m);
+    }
+
+    /// The trial's time series (true and measured distance, tool speed, α_h, mode).
+    pub fn series(&self) -> &Series {
+        &self.judge.series
+    }
+
     /// `/human/state`: adds the slow-down's cost while the robot executes (`executing`).
     pub fn on_human_state(&mut self, m: &HumanState, executing: bool) {
+        self.judge.on_human_state(m);
         let t = m.header.stamp.to_secs_f64();
         if !m.present && m.speed_scale.is_finite() {
             self.v_far = self.v_far.max(m.speed_scale);
