@@ -584,11 +584,17 @@ def start_task(peer):
 
 def stranger(peer, only):
     """The attack classes; returns (failures, rows)."""
-    t0 = peer.now
-    peer.run_for(BASELINE_S)
-    base = peer.speeds(t0, peer.now)[:5]
-    print(f"baseline (person standing close, interaction, shuttle at alpha_h {INTERACTION} m/s): "
-          f"max tool {base[0]:.3f} m/s, median tool {base[2]:.3f} m/s, max joint {base[1]:.3f} rad/s, {base[4]} world samples")
+    # The baseline; once more when the first window was held (a graph just up on a loaded
+    # machine: the controller held on a 0.305 s old first fDED frame for most of it, a clean-clone
+    # rehearsal 2026-12-03). The check itself is unchanged.
+    for attempt in range(2):
+        t0 = peer.now
+        peer.run_for(BASELINE_S)
+        base = peer.speeds(t0, peer.now)[:5]
+        print(f"baseline (person standing close, interaction, shuttle at alpha_h {INTERACTION} m/s): "
+              f"max tool {base[0]:.3f} m/s, median tool {base[2]:.3f} m/s, max joint {base[1]:.3f} rad/s, {base[4]} world samples")
+        if base[2] > 0.5 * INTERACTION or base[0] >= UNSAFE_TOOL:
+            break
     if not (base[2] > 0.5 * INTERACTION and base[0] < UNSAFE_TOOL):
         return [f"the undisturbed shuttle is not moving at about {INTERACTION} m/s (median {base[2]:.3f}, max {base[0]:.3f})"]
     joint_bound = base[1] * 1.5 + 0.05
