@@ -164,17 +164,12 @@ const COFFEE: Kitchen = Kitchen {
 const THESIS_COOPERATIVE: [(&str, f64, f64); 3] = [("add(coffee)", 57.0, 75.6), ("use(spoon)", 58.6, 77.8), ("prepareCoffee", 165.7, 149.8)];
 
 const COFFEE_COOPERATIVE: Kitchen = Kitchen {
-    task: "prepareCoffee",
     table: "Fig. 5.21 (prepareCoffee, the person adds the water)",
-    demos: COFFEE.demos,
-    moved: COFFEE.moved,
     used: &[("coffee", 90.0), ("spoon", 60.0)],
     thesis: &THESIS_COOPERATIVE,
-    limit_s: 420.0,
     person_enters_s: (3.0, 60.0),
     cooperative: true,
-    closed_bottle: false,
-    teach_open: None,
+    ..COFFEE
 };
 
 /// Thesis Fig. 5.22: the person suspends the task (`stop`), opens the bottle and resumes it
