@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Fault, Result, Stream};
 use crate::goal::{Reach, adapted_velocity};
-use crate::ik::{Ik, IkConfig, IkReport, LinkTask, Saturation, Twist, orientation_error, saturate};
+use crate::ik::{Ik, IkConfig, IkReport, LinkTask, Saturation, Twist, limit_avoidance, orientation_error, saturate};
 use crate::modulation::{
     EPSILON, Escape, EscapeConfig, influence_weight, modulate, orthonormal_basis,
     weighted_eigenvalues, weighted_modulation_matrix_in_basis,
@@ -257,6 +257,8 @@ impl ControllerConfig {
             k.posture_gain >= 0.0,
             "must be ≥ 0 1/s",
         )?;
+        check("ik.limit_zone", k.limit_zone, (0.0..=1.0).contains(&k.limit_zone), "must be in [0, 1] rad")?;
+        check("ik.limit_gain", k.limit_gain, (0.0..=100.0).contains(&k.limit_gain), "must be in [0, 100] 1/s")?;
         check(
             "ik.position_margin",
             k.position_margin,
@@ -887,7 +889,9 @@ impl DsController {
         }
 
         let twist = Twist::new(xdot.x, xdot.y, xdot.z, w.x, w.y, w.z);
-        let posture = (self.posture_q - input.q) * (self.cfg.ik.posture_gain * alpha);
+        let posture = ((self.posture_q - input.q) * self.cfg.ik.posture_gain
+            + limit_avoidance(&self.cfg.ik, self.model.joint_limits(), &input.q))
+            * alpha;
         let mut qdot = self.ik.solve_with_posture(
             &self.model,
             &self.poses,
@@ -895,6 +899,7 @@ impl DsController {
             &twist,
             task.as_ref(),
             &posture,
+            Some((&input.q, dt)),
             &mut d.ik,
         );
         // Task transition control: the IK's q̇ is T¹; a push blends in T² / T³.

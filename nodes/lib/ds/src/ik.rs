@@ -31,6 +31,20 @@ pub struct IkConfig {
     /// (the damped pseudo-inverse and saturation otherwise let it wander over long motions).
     #[serde(default)]
     pub posture_gain: f64,
+    /// Joint-limit avoidance (ours, beyond eq. 5.13): inside this distance of a position limit
+    /// (after `position_margin`) a joint is pushed back at `limit_gain` per rad of intrusion,
+    /// in the null space of the higher-priority tasks, rad. 0 (default): off.
+    #[serde(default)]
+    pub limit_zone: f64,
+    /// Gain of the joint-limit avoidance, 1/s.
+    #[serde(default)]
+    pub limit_gain: f64,
+    /// A joint that sits on its position limit while the end-effector task drives it further
+    /// out is taken out of that task (its Jacobian column zeroed) and the task re-solved with
+    /// the others, so they make up for it instead of leaving the task short by the clamped
+    /// part (saturation in the null space, as Flacco et al.'s SNS; ours, beyond eq. 5.13).
+    #[serde(default)]
+    pub release_limited_joints: bool,
 }
 
 impl Default for IkConfig {
@@ -43,6 +57,9 @@ impl Default for IkConfig {
             velocity_limit_fraction: 1.0,
             position_margin: 0.0,
             posture_gain: 0.0,
+            limit_zone: 0.0,
+            limit_gain: 0.0,
+            release_limited_joints: false,
         }
     }
 }
@@ -89,6 +106,30 @@ pub struct IkReport {
     pub link_velocity_desired: Vector3<f64>,
     /// Link-point velocity achieved by the final (unsaturated) q̇ (m/s).
     pub link_velocity: Vector3<f64>,
+    /// Joints taken out of the end-effector task on their position limit (see
+    /// [`IkConfig::release_limited_joints`]).
+    pub released_joints: u8,
+}
+
+/// Joint-limit avoidance velocity (rad/s) at `q` (rad): each joint within `cfg.limit_zone` of
+/// its limit (inside `cfg.position_margin`) is pushed back at `cfg.limit_gain` per rad of
+/// intrusion; zero when the zone or the gain is 0. Allocation-free.
+pub fn limit_avoidance(cfg: &IkConfig, limits: &[JointLimit; DOF], q: &JointVector) -> JointVector {
+    let mut v = JointVector::zeros();
+    if cfg.limit_zone <= 0.0 || cfg.limit_gain <= 0.0 {
+        return v;
+    }
+    for i in 0..DOF {
+        let low = q[i] - (limits[i].lower + cfg.position_margin);
+        let high = (limits[i].upper - cfg.position_margin) - q[i];
+        if low < cfg.limit_zone {
+            v[i] += cfg.limit_gain * (cfg.limit_zone - low);
+        }
+        if high < cfg.limit_zone {
+            v[i] -= cfg.limit_gain * (cfg.limit_zone - high);
+        }
+    }
+    v
 }
 
 impl Ik {
@@ -127,12 +168,16 @@ impl Ik {
         link_task: Option<&LinkTask>,
         report: &mut IkReport,
     ) -> JointVector {
-        self.solve_with_posture(model, poses, tip, twist, link_task, &JointVector::zeros(), report)
+        self.solve_with_posture(model, poses, tip, twist, link_task, &JointVector::zeros(), None, report)
     }
 
     /// [`solve`](Self::solve) plus the posture task: `posture` is the desired joint velocity
     /// (rad/s) of the lowest priority, projected into the null space of the end-effector task
     /// and, when a link task is active, of the link task too.
+    ///
+    /// `at` (joint positions, rad, and the step, s): with `release_limited_joints` on, a joint
+    /// on its position limit that the solution drives further out leaves the end-effector task
+    /// (see [`IkConfig::release_limited_joints`]); `None` solves with every joint.
     #[allow(clippy::too_many_arguments)]
     pub fn solve_with_posture(
         &mut self,
@@ -142,12 +187,34 @@ impl Ik {
         twist: &Twist,
         link_task: Option<&LinkTask>,
         posture: &JointVector,
+        at: Option<(&JointVector, f64)>,
         report: &mut IkReport,
     ) -> JointVector {
         model.jacobian(poses, tip, &Point3::origin(), &mut self.jac);
-        let pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
-        let q1 = pinv * twist;
+        let mut pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
+        let mut q1 = pinv * twist;
         *report = IkReport::default();
+        if let (true, Some((q, dt))) = (self.cfg.release_limited_joints, at) {
+            // At most one pass per joint: each pass releases at least one more.
+            for _ in 0..DOF {
+                let mut released = false;
+                for (i, l) in model.joint_limits().iter().enumerate() {
+                    let next = q[i] + q1[i] * dt;
+                    let out_low = q1[i] < 0.0 && next < l.lower + self.cfg.position_margin;
+                    let out_high = q1[i] > 0.0 && next > l.upper - self.cfg.position_margin;
+                    if (out_low || out_high) && self.jac.column(i).iter().any(|v| *v != 0.0) {
+                        self.jac.column_mut(i).fill(0.0);
+                        released = true;
+                        report.released_joints += 1;
+                    }
+                }
+                if !released {
+                    break;
+                }
+                pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
+                q1 = pinv * twist;
+            }
+        }
         let Some(task) = link_task else {
             if posture.iter().all(|v| *v == 0.0) {
                 return q1;

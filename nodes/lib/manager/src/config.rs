@@ -37,6 +37,10 @@ pub struct ManagerConfig {
     pub action_timeout_s: f64,
     /// A gripper action the simulator has not reported this long after the command fails, s.
     pub gripper_timeout_s: f64,
+    /// A motion command the controller has not acknowledged (no `/motion/status` with its id
+    /// or a newer one) this long after it was sent is sent again, s: a command published
+    /// before the controller's reader matched is lost on a volatile topic.
+    pub motion_resend_s: f64,
     /// World state older than this cannot start an action (the object pose is unknown), s.
     pub world_stale_s: f64,
     /// How a NOA is executed: `stream` — the manager rolls out both DMPs (position and
@@ -102,6 +106,7 @@ impl Default for ManagerConfig {
             nominal_speed_m_s: 0.3,
             action_timeout_s: 120.0,
             gripper_timeout_s: 3.0,
+            motion_resend_s: 1.0,
             world_stale_s: 0.5,
             noa_execution: NoaExecution::Stream,
             stream_period_s: 0.05,
@@ -130,6 +135,7 @@ impl ManagerConfig {
             ("nominal_speed_m_s", self.nominal_speed_m_s, 0.0),
             ("action_timeout_s", self.action_timeout_s, 0.0),
             ("gripper_timeout_s", self.gripper_timeout_s, 0.0),
+            ("motion_resend_s", self.motion_resend_s, 0.0),
             ("world_stale_s", self.world_stale_s, 0.0),
             ("stream_period_s", self.stream_period_s, 0.0),
             ("stream_gain", self.stream_gain, 0.0),

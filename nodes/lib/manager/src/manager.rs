@@ -194,6 +194,24 @@ pub struct Manager {
     /// Object (task name) of the last near-object action started: the one a following
     /// `gripper(close)` closes on.
     last_noa_object: Option<String>,
+    /// Time of the input being handled, s.
+    now_t: f64,
+    /// The last motion command, until the controller reports on it (or a newer one).
+    unacked: Option<Unacked>,
+}
+
+/// How often an unanswered motion command is sent again before the manager stops trying (the
+/// action's own timeout then fails it).
+const MAX_MOTION_RESENDS: u32 = 5;
+
+/// A motion command the controller has not reported on yet.
+#[derive(Debug, Clone)]
+struct Unacked {
+    order: MotionOrder,
+    /// When it was (last) sent, s.
+    sent_t: f64,
+    /// How often it was sent again.
+    resends: u32,
 }
 
 impl Manager {
@@ -213,6 +231,8 @@ impl Manager {
             notes: Vec::new(),
             learned: Vec::new(),
             last_noa_object: None,
+            now_t: 0.0,
+            unacked: None,
         }
     }
 
@@ -270,6 +290,7 @@ impl Manager {
 
     /// Handles one input at `now`, appending what it causes to `out`.
     pub fn handle(&mut self, input: &Input, now: Stamp, out: &mut Vec<Output>) {
+        self.now_t = now.t;
         match input {
             Input::World(r) => self.on_world(r, now, out),
             Input::Speech(text) => self.on_speech(text, now, out),
@@ -281,12 +302,7 @@ impl Manager {
 
     fn hold(&mut self, label: &str, out: &mut Vec<Output>) {
         self.motion_id += 1;
-        out.push(Output::Motion(MotionOrder {
-            id: self.motion_id,
-            label: label.to_owned(),
-            plan: None,
-            nominal_speed: self.cfg.nominal_speed_m_s,
-        }));
+        self.send(MotionOrder { id: self.motion_id, label: label.to_owned(), plan: None, nominal_speed: self.cfg.nominal_speed_m_s }, out);
     }
 
     fn report(out: &mut Vec<Output>, r: &Running, done: bool, failed: bool, reason: String) {
@@ -626,12 +642,10 @@ impl Manager {
         };
         self.motion_id += 1;
         run.motion_id = Some(self.motion_id);
-        out.push(Output::Motion(MotionOrder {
-            id: self.motion_id,
-            label: run.label.clone(),
-            plan: Some(plan),
-            nominal_speed: self.cfg.nominal_speed_m_s,
-        }));
+        self.send(
+            MotionOrder { id: self.motion_id, label: run.label.clone(), plan: Some(plan), nominal_speed: self.cfg.nominal_speed_m_s },
+            out,
+        );
         Self::report(out, &run, false, false, String::new());
         self.current = Some(run);
     }
@@ -665,12 +679,42 @@ impl Manager {
         let goal = st.poses[st.sent].1;
         self.motion_id += 1;
         cur.motion_id = Some(self.motion_id);
-        out.push(Output::Motion(MotionOrder {
+        let order = MotionOrder {
             id: self.motion_id,
             label: cur.label.clone(),
             plan: Some(MotionPlan::Linear { goal, gain: self.cfg.stream_gain }),
             nominal_speed: self.cfg.nominal_speed_m_s,
-        }));
+        };
+        self.send(order, out);
+    }
+
+    /// Sends `order` to the controller and waits for its report (see `on_tick`).
+    fn send(&mut self, order: MotionOrder, out: &mut Vec<Output>) {
+        self.unacked = Some(Unacked { order: order.clone(), sent_t: self.now_t, resends: 0 });
+        out.push(Output::Motion(order));
+    }
+
+    /// Sends the last motion command again when the controller has not reported on it for
+    /// `motion_resend_s` (lost before the controller's reader matched the manager's writer).
+    fn resend_unacked(&mut self, now: f64, out: &mut Vec<Output>) {
+        let period = self.cfg.motion_resend_s;
+        let Some(u) = self.unacked.as_mut() else { return };
+        // A clock that went back (restarted simulation) restarts the wait.
+        if now < u.sent_t {
+            u.sent_t = now;
+        }
+        if now - u.sent_t < period || u.resends >= MAX_MOTION_RESENDS {
+            return;
+        }
+        u.sent_t = now;
+        u.resends += 1;
+        out.push(Output::Warn(format!(
+            "no /motion/status for motion command {} ({}) {period} s after it was sent: sent again ({} of {MAX_MOTION_RESENDS})",
+            u.order.id,
+            if u.order.label.is_empty() { "hold" } else { &u.order.label },
+            u.resends
+        )));
+        out.push(Output::Motion(u.order.clone()));
     }
 
     fn on_motion(&mut self, m: &MotionReport, out: &mut Vec<Output>) {
@@ -682,6 +726,9 @@ impl Manager {
                 "/motion/status for unknown command id {} (last sent {}): ignored",
                 m.command_id, self.motion_id
             )));
+        }
+        if self.unacked.as_ref().is_some_and(|u| m.command_id >= u.order.id) {
+            self.unacked = None;
         }
         let Some(cur) = self.current.clone() else { return };
         if cur.motion_id != Some(m.command_id) {
@@ -706,6 +753,7 @@ impl Manager {
     }
 
     fn on_tick(&mut self, now: Stamp, out: &mut Vec<Output>) {
+        self.resend_unacked(now.t, out);
         let Some(cur) = self.current.clone() else { return };
         let elapsed = now.t - cur.started;
         let limit = if cur.gripper.is_some() { self.cfg.gripper_timeout_s } else { self.cfg.action_timeout_s };

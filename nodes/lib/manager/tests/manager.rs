@@ -134,6 +134,36 @@ fn execution_carries_goals_to_the_moved_object() {
 }
 
 #[test]
+fn a_motion_command_the_controller_never_reported_on_is_sent_again() {
+    let mut d = taught();
+    let out = run_action(&mut d, 7, "foa1(water)");
+    let first = out
+        .iter()
+        .find_map(|o| match o {
+            Output::Motion(m) => Some(m.clone()),
+            _ => None,
+        })
+        .expect("a motion order");
+    let orders = |out: &[Output]| out.iter().filter_map(|o| if let Output::Motion(m) = o { Some(m.clone()) } else { None }).collect::<Vec<_>>();
+    // 0.5 s of silence from the controller: nothing yet; past 1 s: the same order again.
+    d.wait(0.5);
+    assert!(orders(&d.take()).is_empty());
+    d.wait(0.6);
+    let out = d.take();
+    assert_eq!(orders(&out), [first.clone()], "{out:#?}");
+    assert!(warnings(&out).iter().any(|w| w.contains("no /motion/status for motion command") && w.contains("foa1(water)")));
+    // At most 5 times in all, then the action's own timeout decides.
+    d.wait(10.0);
+    assert_eq!(orders(&d.take()).len(), 4);
+    // Once the controller reports on it, nothing more is sent.
+    let out = run_action(&mut d, 8, "foa4(cup)");
+    let second = orders(&out).pop().expect("a motion order");
+    d.input(Input::Motion(MotionReport { command_id: second.id, state: MotionState::Running, reason: String::new() }));
+    d.wait(3.0);
+    assert!(orders(&d.take()).is_empty());
+}
+
+#[test]
 fn gripper_actions_are_done_when_the_world_reports_the_grasp() {
     let mut d = taught();
     // Put the tool where the bottle can be grasped.
