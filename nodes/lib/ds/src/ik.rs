@@ -39,6 +39,12 @@ pub struct IkConfig {
     /// Gain of the joint-limit avoidance, 1/s.
     #[serde(default)]
     pub limit_gain: f64,
+    /// Joints kept off zero the same way (within `limit_zone` of 0 they are pushed away from
+    /// it at `limit_gain`): on the LWR joint 6 at 0 is the wrist singularity, where joints 5
+    /// and 7 turn about one axis and wind up against their limits (coffee seed 5's spoon:
+    /// joint 6 at 4.8° above the cup, then joints 5 and 7 at ±170° for the rest of the trial).
+    #[serde(default)]
+    pub keep_off_zero: [bool; DOF],
     /// A joint that sits on its position limit while the end-effector task drives it further
     /// out is taken out of that task (its Jacobian column zeroed) and the task re-solved with
     /// the others, so they make up for it instead of leaving the task short by the clamped
@@ -59,6 +65,7 @@ impl Default for IkConfig {
             posture_gain: 0.0,
             limit_zone: 0.0,
             limit_gain: 0.0,
+            keep_off_zero: [false; DOF],
             release_limited_joints: false,
         }
     }
@@ -112,8 +119,9 @@ pub struct IkReport {
 }
 
 /// Joint-limit avoidance velocity (rad/s) at `q` (rad): each joint within `cfg.limit_zone` of
-/// its limit (inside `cfg.position_margin`) is pushed back at `cfg.limit_gain` per rad of
-/// intrusion; zero when the zone or the gain is 0. Allocation-free.
+/// its limit (inside `cfg.position_margin`), or of 0 for the `keep_off_zero` joints, is pushed
+/// back at `cfg.limit_gain` per rad of intrusion; zero when the zone or the gain is 0.
+/// Allocation-free.
 pub fn limit_avoidance(cfg: &IkConfig, limits: &[JointLimit; DOF], q: &JointVector) -> JointVector {
     let mut v = JointVector::zeros();
     if cfg.limit_zone <= 0.0 || cfg.limit_gain <= 0.0 {
@@ -127,6 +135,10 @@ pub fn limit_avoidance(cfg: &IkConfig, limits: &[JointLimit; DOF], q: &JointVect
         }
         if high < cfg.limit_zone {
             v[i] -= cfg.limit_gain * (cfg.limit_zone - high);
+        }
+        if cfg.keep_off_zero[i] && q[i].abs() < cfg.limit_zone {
+            // Away from 0 on the side the joint is on (positive at exactly 0).
+            v[i] += cfg.limit_gain * (cfg.limit_zone - q[i].abs()) * if q[i] < 0.0 { -1.0 } else { 1.0 };
         }
     }
     v

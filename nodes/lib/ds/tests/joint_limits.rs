@@ -56,6 +56,13 @@ fn limit_avoidance_pushes_only_inside_the_zone() {
     assert!((v[1] + 2.0 * 0.2).abs() < 1e-12, "{v}");
     assert!((v[2] - 2.0 * 0.25).abs() < 1e-12, "{v}");
     assert_eq!(v[0], 0.0);
+    // Joint 6 kept off its wrist singularity at 0.
+    let wrist = cowork_ds::ik::IkConfig { keep_off_zero: [false, false, false, false, false, true, false], ..cfg };
+    q[5] = -0.1;
+    let v = cowork_ds::ik::limit_avoidance(&wrist, &limits, &q);
+    assert!((v[5] + 2.0 * 0.2).abs() < 1e-12, "{v}");
+    q[5] = 0.5;
+    assert_eq!(cowork_ds::ik::limit_avoidance(&wrist, &limits, &q)[5], 0.0);
     let off = cowork_ds::ik::IkConfig::default();
     assert_eq!(cowork_ds::ik::limit_avoidance(&off, &limits, &q), JointVector::zeros());
 }

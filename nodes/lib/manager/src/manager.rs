@@ -198,6 +198,8 @@ pub struct Manager {
     now_t: f64,
     /// The last motion command, until the controller reports on it (or a newer one).
     unacked: Option<Unacked>,
+    /// Some `/motion/status` arrived: a controller is there to send to again.
+    controller_heard: bool,
 }
 
 /// How often an unanswered motion command is sent again before the manager stops trying (the
@@ -233,6 +235,7 @@ impl Manager {
             last_noa_object: None,
             now_t: 0.0,
             unacked: None,
+            controller_heard: false,
         }
     }
 
@@ -698,6 +701,11 @@ impl Manager {
     /// `motion_resend_s` (lost before the controller's reader matched the manager's writer).
     fn resend_unacked(&mut self, now: f64, out: &mut Vec<Output>) {
         let period = self.cfg.motion_resend_s;
+        // While teaching the person moves the arm; and without any controller status there is
+        // no controller to send to (the teaching graph runs none).
+        if self.mode == Mode::Teach || !self.controller_heard {
+            return;
+        }
         let Some(u) = self.unacked.as_mut() else { return };
         // A clock that went back (restarted simulation) restarts the wait.
         if now < u.sent_t {
@@ -718,6 +726,7 @@ impl Manager {
     }
 
     fn on_motion(&mut self, m: &MotionReport, out: &mut Vec<Output>) {
+        self.controller_heard = true;
         if m.command_id == 0 {
             return; // the controller's "waiting for a command"
         }

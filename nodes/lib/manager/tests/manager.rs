@@ -136,6 +136,8 @@ fn execution_carries_goals_to_the_moved_object() {
 #[test]
 fn a_motion_command_the_controller_never_reported_on_is_sent_again() {
     let mut d = taught();
+    // The controller is there ("waiting for a command"), but misses the first order.
+    d.input(Input::Motion(MotionReport { command_id: 0, state: MotionState::Held, reason: String::new() }));
     let out = run_action(&mut d, 7, "foa1(water)");
     let first = out
         .iter()
@@ -159,6 +161,11 @@ fn a_motion_command_the_controller_never_reported_on_is_sent_again() {
     let out = run_action(&mut d, 8, "foa4(cup)");
     let second = orders(&out).pop().expect("a motion order");
     d.input(Input::Motion(MotionReport { command_id: second.id, state: MotionState::Running, reason: String::new() }));
+    d.wait(3.0);
+    assert!(orders(&d.take()).is_empty());
+    // Without any controller status (the teaching graph runs no controller) nothing is resent.
+    let mut d = taught();
+    run_action(&mut d, 7, "foa1(water)");
     d.wait(3.0);
     assert!(orders(&d.take()).is_empty());
 }
