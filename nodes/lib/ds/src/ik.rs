@@ -137,8 +137,8 @@ pub fn limit_avoidance(cfg: &IkConfig, limits: &[JointLimit; DOF], q: &JointVect
             v[i] -= cfg.limit_gain * (cfg.limit_zone - high);
         }
         if cfg.keep_off_zero[i] && q[i].abs() < cfg.limit_zone {
-            // Away from 0 on the side the joint is on (positive at exactly 0).
-            v[i] += cfg.limit_gain * (cfg.limit_zone - q[i].abs()) * if q[i] < 0.0 { -1.0 } else { 1.0 };
+            // Away from 0 on the side the joint is on.
+            v[i] += cfg.limit_gain * (cfg.limit_zone - q[i].abs()) * q[i].signum();
         }
     }
     v

@@ -304,8 +304,7 @@ impl Manager {
     }
 
     fn hold(&mut self, label: &str, out: &mut Vec<Output>) {
-        self.motion_id += 1;
-        self.send(MotionOrder { id: self.motion_id, label: label.to_owned(), plan: None, nominal_speed: self.cfg.nominal_speed_m_s }, out);
+        self.send(label.to_owned(), None, out);
     }
 
     fn report(out: &mut Vec<Output>, r: &Running, done: bool, failed: bool, reason: String) {
@@ -643,12 +642,7 @@ impl Manager {
             Some(Err(e)) => return self.fail(&run, e.to_string(), out),
             None => return self.fail(&run, "no primitive".into(), out),
         };
-        self.motion_id += 1;
-        run.motion_id = Some(self.motion_id);
-        self.send(
-            MotionOrder { id: self.motion_id, label: run.label.clone(), plan: Some(plan), nominal_speed: self.cfg.nominal_speed_m_s },
-            out,
-        );
+        run.motion_id = Some(self.send(run.label.clone(), Some(plan), out));
         Self::report(out, &run, false, false, String::new());
         self.current = Some(run);
     }
@@ -680,21 +674,21 @@ impl Manager {
         };
         st.sent = k.max(st.sent);
         let goal = st.poses[st.sent].1;
-        self.motion_id += 1;
-        cur.motion_id = Some(self.motion_id);
-        let order = MotionOrder {
-            id: self.motion_id,
-            label: cur.label.clone(),
-            plan: Some(MotionPlan::Linear { goal, gain: self.cfg.stream_gain }),
-            nominal_speed: self.cfg.nominal_speed_m_s,
-        };
-        self.send(order, out);
+        let (label, gain) = (cur.label.clone(), self.cfg.stream_gain);
+        let id = self.send(label, Some(MotionPlan::Linear { goal, gain }), out);
+        if let Some(cur) = self.current.as_mut() {
+            cur.motion_id = Some(id);
+        }
     }
 
-    /// Sends `order` to the controller and waits for its report (see `on_tick`).
-    fn send(&mut self, order: MotionOrder, out: &mut Vec<Output>) {
+    /// Sends the next motion command (`plan` `None` holds the arm) to the controller, keeps it
+    /// until the controller reports on it (see `resend_unacked`), and returns its id.
+    fn send(&mut self, label: String, plan: Option<MotionPlan>, out: &mut Vec<Output>) -> u32 {
+        self.motion_id += 1;
+        let order = MotionOrder { id: self.motion_id, label, plan, nominal_speed: self.cfg.nominal_speed_m_s };
         self.unacked = Some(Unacked { order: order.clone(), sent_t: self.now_t, resends: 0 });
         out.push(Output::Motion(order));
+        self.motion_id
     }
 
     /// Sends the last motion command again when the controller has not reported on it for

@@ -84,13 +84,7 @@ fn execution_carries_goals_to_the_moved_object() {
     d.world.step(0.01);
     d.feed_world();
     let out = run_action(&mut d, 7, "foa1(water)");
-    let order = out
-        .iter()
-        .find_map(|o| match o {
-            Output::Motion(m) => Some(m.clone()),
-            _ => None,
-        })
-        .expect("a motion order");
+    let order = orders(&out).first().cloned().expect("a motion order");
     let Some(MotionPlan::Linear { goal, gain }) = &order.plan else { panic!("{order:?}") };
     assert_eq!(*gain, 2.0);
     let g = d.manager.database().get("foa1").expect("foa1").goal.position;
@@ -139,14 +133,7 @@ fn a_motion_command_the_controller_never_reported_on_is_sent_again() {
     // The controller is there ("waiting for a command"), but misses the first order.
     d.input(Input::Motion(MotionReport { command_id: 0, state: MotionState::Held, reason: String::new() }));
     let out = run_action(&mut d, 7, "foa1(water)");
-    let first = out
-        .iter()
-        .find_map(|o| match o {
-            Output::Motion(m) => Some(m.clone()),
-            _ => None,
-        })
-        .expect("a motion order");
-    let orders = |out: &[Output]| out.iter().filter_map(|o| if let Output::Motion(m) = o { Some(m.clone()) } else { None }).collect::<Vec<_>>();
+    let first = orders(&out).first().cloned().expect("a motion order");
     // 0.5 s of silence from the controller: nothing yet; past 1 s: the same order again.
     d.wait(0.5);
     assert!(orders(&d.take()).is_empty());

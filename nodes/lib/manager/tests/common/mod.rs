@@ -241,3 +241,13 @@ pub fn learn_from_bag(bag: &std::path::Path, config_dir: &std::path::Path) -> (M
     .expect("replay");
     (manager, out)
 }
+
+/// The motion orders in `out`, in order.
+pub fn orders(out: &[Output]) -> Vec<cowork_manager::MotionOrder> {
+    out.iter()
+        .filter_map(|o| match o {
+            Output::Motion(m) => Some(m.clone()),
+            _ => None,
+        })
+        .collect()
+}
