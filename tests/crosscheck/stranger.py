@@ -61,7 +61,7 @@ from dds_peer import Float64MultiArray, Header, JointState, MultiArrayLayout, Ti
 
 ATTACK_S = 3.0  # wall seconds per attack class
 RECOVER_S = 1.5  # wall seconds after each class before the next
-BASELINE_S = 4.0
+BASELINE_S = 8.0  # two shuttle legs: the joint speeds of the whole path, both ways
 FAR = 0.3
 INTERACTION = 0.1
 SHUTTLE_HALF_M = 0.2
@@ -534,8 +534,11 @@ def attacks(peer):
             n += 1
         return n
 
+    # Direct joint commands last: they drive the arm to another configuration (joints on their
+    # limits), where the shuttle needs other joint speeds than the baseline measured; classes
+    # judged after it got "through" on joint speed alone (CI of stop 28: 0.905 rad/s over a
+    # 0.825 bound with the tool at 0.047 m/s).
     return [
-        ("direct joint commands", False, joint_commands, 500),
         ("malformed joint commands (NaN/inf/size)", True, joint_commands_malformed, 500),
         ("empty/NaN/bad distances", True, distances, 200),
         ("human state: present false, far", True, human_absent, 200),
@@ -545,6 +548,7 @@ def attacks(peer):
         ("model_file tricks", True, model_file, 50),
         ("/clock jumps", True, clock_jumps, 200),
         ("wrong types on 8 topics", True, wrong_types, 100),
+        ("direct joint commands", False, joint_commands, 500),
     ]
 
 
@@ -597,7 +601,10 @@ def stranger(peer, only):
             break
     if not (base[2] > 0.5 * INTERACTION and base[0] < UNSAFE_TOOL):
         return [f"the undisturbed shuttle is not moving at about {INTERACTION} m/s (median {base[2]:.3f}, max {base[0]:.3f})"]
-    joint_bound = base[1] * 1.5 + 0.05
+    # Joint speeds along the same tool path vary with where the person stands relative to the
+    # links (the damper) and with holds and resumes: undisturbed classes reached 1.35 x the
+    # baseline's 4 s maximum (2026-12-03); 1.5 x + 0.1 rad/s leaves room for that.
+    joint_bound = base[1] * 1.5 + 0.1
 
     rows = []
     failed = []
@@ -641,7 +648,7 @@ def stranger(peer, only):
         print(f"{name:42} {sent:>6} {up:>3}/{n:<2} {vmax:>12.3f} {vmed:>7.3f} {over:>6.2f} {qmax:>15.3f} {held:>12} "
               f"{'yes' if changed else 'no':>7} {'YES' if unsafe else 'no':>11}")
     print(f"got through: tool over {UNSAFE_TOOL:.3f} m/s (interaction speed + 30 %) for {SUSTAINED_S} s or more, or a joint "
-          f"> {joint_bound:.3f} rad/s (baseline x 1.5 + 0.05); {sum(r[1] for r in rows)} messages in all")
+          f"> {joint_bound:.3f} rad/s (baseline x 1.5 + 0.1); {sum(r[1] for r in rows)} messages in all")
     through = [r[0] for r in rows if r[-1]]
     print(f"got through: {through or 'none'} (direct joint commands need DDS security to refuse)")
     return failed
