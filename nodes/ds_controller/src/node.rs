@@ -146,6 +146,9 @@ impl Adapter {
                 ),
             });
         }
+        // Each link exactly once: a link named twice leaves another without an entry, which
+        // would read as "no obstacle" (a fake all-clear).
+        let mut seen = [false; MAX_LINKS];
         for (pos, l) in msg.links.iter().enumerate() {
             let i = if l.link_name.is_empty() {
                 pos
@@ -154,6 +157,11 @@ impl Adapter {
                     reason: format!("unknown link name {:?} in entry {pos}", quote(&l.link_name)),
                 })?
             };
+            if std::mem::replace(&mut seen[i], true) {
+                return Err(Rejection {
+                    reason: format!("link {:?} has a second entry (entry {pos}); one entry per link is required", self.link_names[i]),
+                });
+            }
             let p = |p: &cowork_msgs::geometry_msgs::Point| Point3::new(p.x, p.y, p.z);
             let v = |v: &cowork_msgs::geometry_msgs::Vector3| Vector3::new(v.x, v.y, v.z);
             d.links[i] = LinkDistance {

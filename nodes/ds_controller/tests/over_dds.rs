@@ -440,11 +440,17 @@ fn bad_input_is_rejected_with_a_reason_and_the_robot_held() {
     assert!(g.client.run_for(10.0, true, |c| status_is(c, 4, MotionStatus::STATE_RUNNING) && c.max_speed() > 0.005), "no resume");
 
     // Fail closed on what used to read as "no obstacle" or as fresh: an empty distances
-    // message, distances measured 0.5 s ago (delivered now), distances stamped 1 s in the
+    // message, a link named twice (another one missing), distances measured 0.5 s ago (delivered now), distances stamped 1 s in the
     // future (a clock that went back).
     type Case = (&'static str, fn(&Client) -> LinkDistances, &'static str);
-    let cases: [Case; 3] = [
+    let cases: [Case; 4] = [
         ("empty", |c| LinkDistances { header: c.header(0.0), min_index: -1, ..Default::default() }, "one entry per link"),
+        // Link 0 twice, link 1 missing: a fake all-clear for link 1.
+        ("duplicate", |c| {
+            let mut m = c.distances_msg(None, 0.0);
+            m.links[1].link_name = m.links[0].link_name.clone();
+            m
+        }, "second entry"),
         ("late", |c| c.distances_msg(None, -0.5), "exceeds"),
         ("future", |c| c.distances_msg(None, 1.0), "negative"),
     ];
