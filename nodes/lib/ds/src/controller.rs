@@ -257,6 +257,20 @@ impl ControllerConfig {
             k.posture_gain >= 0.0,
             "must be ≥ 0 1/s",
         )?;
+        if let Some(r) = &k.posture_reference {
+            const FIELDS: [&str; DOF] = [
+                "ik.posture_reference[0]",
+                "ik.posture_reference[1]",
+                "ik.posture_reference[2]",
+                "ik.posture_reference[3]",
+                "ik.posture_reference[4]",
+                "ik.posture_reference[5]",
+                "ik.posture_reference[6]",
+            ];
+            for (field, v) in FIELDS.iter().zip(r) {
+                check(field, *v, v.abs() <= 2.0 * std::f64::consts::PI, "must be an angle within ±2π rad")?;
+            }
+        }
         check("ik.limit_zone", k.limit_zone, (0.0..=1.0).contains(&k.limit_zone), "must be in [0, 1] rad")?;
         check("ik.limit_gain", k.limit_gain, (0.0..=100.0).contains(&k.limit_gain), "must be in [0, 100] 1/s")?;
         check(
@@ -889,7 +903,8 @@ impl DsController {
         }
 
         let twist = Twist::new(xdot.x, xdot.y, xdot.z, w.x, w.y, w.z);
-        let posture = ((self.posture_q - input.q) * self.cfg.ik.posture_gain
+        let posture_target = self.cfg.ik.posture_reference.map_or(self.posture_q, JointVector::from);
+        let posture = ((posture_target - input.q) * self.cfg.ik.posture_gain
             + limit_avoidance(&self.cfg.ik, self.model.joint_limits(), &input.q))
             * alpha;
         let mut qdot = self.ik.solve_with_posture(

@@ -31,6 +31,12 @@ pub struct IkConfig {
     /// (the damped pseudo-inverse and saturation otherwise let it wander over long motions).
     #[serde(default)]
     pub posture_gain: f64,
+    /// Joint configuration the posture task pulls towards (rad), instead of the one the
+    /// current command started from. A task streamed as many short commands (the manager's
+    /// learned primitives) restarts that reference at every command, so it only damps drift;
+    /// a fixed, well-conditioned posture (the robot's ready pose) keeps the redundant elbow
+    /// where the wrist keeps its range. None (default): the command's start.
+    pub posture_reference: Option<[f64; DOF]>,
     /// Joint-limit avoidance (ours, beyond eq. 5.13): inside this distance of a position limit
     /// (after `position_margin`) a joint is pushed back at `limit_gain` per rad of intrusion,
     /// in the null space of the higher-priority tasks, rad. 0 (default): off.
@@ -63,6 +69,7 @@ impl Default for IkConfig {
             velocity_limit_fraction: 1.0,
             position_margin: 0.0,
             posture_gain: 0.0,
+            posture_reference: None,
             limit_zone: 0.0,
             limit_gain: 0.0,
             keep_off_zero: [false; DOF],
