@@ -88,3 +88,46 @@ fn elbow_avoids_a_sphere_on_its_path() {
     assert!(avoid.reached, "goal reached with link avoidance");
     assert!(avoid.link_task_steps > 0);
 }
+
+/// The posture task with a fixed reference (`ik.posture_reference`) turns the redundant elbow
+/// back to it while the tool holds its pose; with the default (the command's start) the elbow
+/// stays where the arm is.
+#[test]
+fn posture_reference_turns_the_elbow_and_the_tool_stays() {
+    let model = common::lwr();
+    let reference = [0.0, 0.6, 0.0, -1.3, 0.0, 0.7, 0.0];
+    let q_ref = JointVector::from_row_slice(&reference);
+    let x0 = common::tip_position(&model, &q_ref);
+    let hand = model.link_pose(&q_ref, model.tip_link()).rotation;
+    // Holds the tool's pose from `q` for 5 s; returns the joints and the largest tool error.
+    let hold = |q: JointVector, posture_reference: Option<[f64; 7]>| {
+        let mut cfg = ControllerConfig::default();
+        cfg.ik.posture_gain = 2.0;
+        cfg.ik.posture_reference = posture_reference;
+        let mut ctl = DsController::new(model.clone(), cfg).unwrap();
+        let mut cmd = common::command(common::linear(2.0), x0);
+        cmd.orientation = Some(hand);
+        let mut q = q;
+        let mut out = ControlOutput::default();
+        let mut tool_off = 0.0f64;
+        for k in 0..5000 {
+            ctl.step(&common::input(q, cmd, k as f64 * 1e-3), &mut out).unwrap();
+            q += out.qdot * 1e-3;
+            tool_off = tool_off.max((common::tip_position(&model, &q) - x0).norm());
+        }
+        (q, tool_off)
+    };
+    // The same tool pose with the elbow swivelled: pulled towards joints 3 and 7 at 1.5 rad.
+    let (swivelled, _) = hold(q_ref, Some([0.0, 0.6, 1.5, -1.3, 0.0, 0.7, 1.5]));
+    let dist = |q: &JointVector| (q - q_ref).norm();
+    let (kept, kept_off) = hold(swivelled, None);
+    let (back, back_off) = hold(swivelled, Some(reference));
+    eprintln!(
+        "posture: {:.3} rad from the reference after the swivel, {:.3} held without a reference, {:.3} with; tool off at most {:.4} / {:.4} m",
+        dist(&swivelled), dist(&kept), dist(&back), kept_off, back_off
+    );
+    assert!(dist(&swivelled) > 0.5, "the swivel did not move the elbow: {}", dist(&swivelled));
+    assert!((dist(&kept) - dist(&swivelled)).abs() < 0.02, "without a reference the elbow moved: {}", dist(&kept));
+    assert!(dist(&back) < 0.1 * dist(&swivelled), "the reference did not turn the elbow back: {}", dist(&back));
+    assert!(kept_off < 0.005 && back_off < 0.005, "the tool left its pose: {kept_off} / {back_off} m");
+}
