@@ -268,7 +268,9 @@ impl ControllerConfig {
                 "ik.posture_reference[6]",
             ];
             for (field, v) in FIELDS.iter().zip(r) {
-                check(field, *v, v.abs() <= 2.0 * std::f64::consts::PI, "must be an angle within ±2π rad")?;
+                if let Some(v) = v {
+                    check(field, *v, v.abs() <= 2.0 * std::f64::consts::PI, "must be an angle within ±2π rad or null")?;
+                }
             }
         }
         check("ik.limit_zone", k.limit_zone, (0.0..=1.0).contains(&k.limit_zone), "must be in [0, 1] rad")?;
@@ -903,10 +905,19 @@ impl DsController {
         }
 
         let twist = Twist::new(xdot.x, xdot.y, xdot.z, w.x, w.y, w.z);
-        let posture_target = self.cfg.ik.posture_reference.map_or(self.posture_q, JointVector::from);
-        let posture = ((posture_target - input.q) * self.cfg.ik.posture_gain
-            + limit_avoidance(&self.cfg.ik, self.model.joint_limits(), &input.q))
-            * alpha;
+        let mut posture = limit_avoidance(&self.cfg.ik, self.model.joint_limits(), &input.q);
+        let gain = self.cfg.ik.posture_gain;
+        match &self.cfg.ik.posture_reference {
+            Some(reference) => {
+                for (j, r) in reference.iter().enumerate() {
+                    if let Some(r) = r {
+                        posture[j] += (r - input.q[j]) * gain;
+                    }
+                }
+            }
+            None => posture += (self.posture_q - input.q) * gain,
+        }
+        posture *= alpha;
         let mut qdot = self.ik.solve_with_posture(
             &self.model,
             &self.poses,

@@ -31,12 +31,16 @@ pub struct IkConfig {
     /// (the damped pseudo-inverse and saturation otherwise let it wander over long motions).
     #[serde(default)]
     pub posture_gain: f64,
-    /// Joint configuration the posture task pulls towards (rad), instead of the one the
-    /// current command started from. A task streamed as many short commands (the manager's
-    /// learned primitives) restarts that reference at every command, so it only damps drift;
-    /// a fixed, well-conditioned posture (the robot's ready pose) keeps the redundant elbow
-    /// where the wrist keeps its range. None (default): the command's start.
-    pub posture_reference: Option<[f64; DOF]>,
+    /// Joint positions the posture task pulls towards (rad; `None` entries: that joint is not
+    /// pulled), instead of the configuration the current command started from. A task
+    /// streamed as many short commands (the manager's learned primitives) restarts that
+    /// reference at every command, so it only damps drift; a fixed reference for the joints
+    /// that turn the elbow about the shoulder–wrist line (1, 3, 5, 7 on the LWR) keeps it where
+    /// the wrist keeps its range. Leave free the joints the hand's pose dictates (2, 4, 6): a
+    /// pull on joint 6 across its keep-off-zero zone fought that push and held the spoon 7.6 mm
+    /// off its goal, where the damped projector's leak balanced the DS (coffee seed 2). `None`
+    /// (default): the command's start, every joint.
+    pub posture_reference: Option<[Option<f64>; DOF]>,
     /// Joint-limit avoidance (ours, beyond eq. 5.13): inside this distance of a position limit
     /// (after `position_margin`) a joint is pushed back at `limit_gain` per rad of intrusion,
     /// in the null space of the higher-priority tasks, rad. 0 (default): off.

@@ -100,7 +100,7 @@ fn posture_reference_turns_the_elbow_and_the_tool_stays() {
     let x0 = common::tip_position(&model, &q_ref);
     let hand = model.link_pose(&q_ref, model.tip_link()).rotation;
     // Holds the tool's pose from `q` for 5 s; returns the joints and the largest tool error.
-    let hold = |q: JointVector, posture_reference: Option<[f64; 7]>| {
+    let hold = |q: JointVector, posture_reference: Option<[Option<f64>; 7]>| {
         let mut cfg = ControllerConfig::default();
         cfg.ik.posture_gain = 2.0;
         cfg.ik.posture_reference = posture_reference;
@@ -118,14 +118,17 @@ fn posture_reference_turns_the_elbow_and_the_tool_stays() {
         (q, tool_off)
     };
     // The same tool pose with the elbow swivelled: pulled towards joints 3 and 7 at 1.5 rad.
-    let (swivelled, _) = hold(q_ref, Some([0.0, 0.6, 1.5, -1.3, 0.0, 0.7, 1.5]));
+    let (swivelled, _) = hold(q_ref, Some([Some(0.0), Some(0.6), Some(1.5), Some(-1.3), Some(0.0), Some(0.7), Some(1.5)]));
     let dist = |q: &JointVector| (q - q_ref).norm();
     let (kept, kept_off) = hold(swivelled, None);
-    let (back, back_off) = hold(swivelled, Some(reference));
+    let (back, back_off) = hold(swivelled, Some(reference.map(Some)));
+    // Only the swivel joints pulled (1, 3, 5, 7; 2, 4, 6 free): back as well.
+    let (swivel_only, _) = hold(swivelled, Some([Some(0.0), None, Some(0.0), None, Some(0.0), None, Some(0.0)]));
     eprintln!(
-        "posture: {:.3} rad from the reference after the swivel, {:.3} held without a reference, {:.3} with; tool off at most {:.4} / {:.4} m",
-        dist(&swivelled), dist(&kept), dist(&back), kept_off, back_off
+        "posture: {:.3} rad from the reference after the swivel, {:.3} held without a reference, {:.3} with, {:.3} with joints 1, 3, 5, 7 only; tool off at most {:.4} / {:.4} m",
+        dist(&swivelled), dist(&kept), dist(&back), dist(&swivel_only), kept_off, back_off
     );
+    assert!(dist(&swivel_only) < 0.1 * dist(&swivelled), "joints 1, 3, 5, 7 did not turn the elbow back: {}", dist(&swivel_only));
     assert!(dist(&swivelled) > 0.5, "the swivel did not move the elbow: {}", dist(&swivelled));
     assert!((dist(&kept) - dist(&swivelled)).abs() < 0.02, "without a reference the elbow moved: {}", dist(&kept));
     assert!(dist(&back) < 0.1 * dist(&swivelled), "the reference did not turn the elbow back: {}", dist(&back));
