@@ -41,6 +41,7 @@ fn float_keys() -> Vec<(&'static str, Setter, f64)> {
         ("controller.ik.velocity_limit_fraction", |p| &mut p.controller.ik.velocity_limit_fraction, 1.5),
         ("controller.ik.position_margin", |p| &mut p.controller.ik.position_margin, -0.01),
         ("controller.ik.posture_gain", |p| &mut p.controller.ik.posture_gain, -1.0),
+        ("controller.ik.posture_max_speed", |p| &mut p.controller.ik.posture_max_speed, 0.0),
         ("controller.ik.limit_zone", |p| &mut p.controller.ik.limit_zone, 1.5),
         ("controller.ik.limit_gain", |p| &mut p.controller.ik.limit_gain, -1.0),
         ("controller.safety.stop_distance", |p| &mut p.controller.safety.stop_distance, 0.0),

@@ -273,6 +273,12 @@ impl ControllerConfig {
                 }
             }
         }
+        check(
+            "ik.posture_max_speed",
+            k.posture_max_speed,
+            k.posture_max_speed > 0.0,
+            "must be > 0 rad/s",
+        )?;
         check("ik.limit_zone", k.limit_zone, (0.0..=1.0).contains(&k.limit_zone), "must be in [0, 1] rad")?;
         check("ik.limit_gain", k.limit_gain, (0.0..=100.0).contains(&k.limit_gain), "must be in [0, 100] 1/s")?;
         check(
@@ -918,6 +924,10 @@ impl DsController {
             None => posture += (self.posture_q - input.q) * gain,
         }
         posture *= alpha;
+        let pull = posture.norm();
+        if pull > self.cfg.ik.posture_max_speed {
+            posture *= self.cfg.ik.posture_max_speed / pull;
+        }
         let mut qdot = self.ik.solve_with_posture(
             &self.model,
             &self.poses,
