@@ -273,6 +273,7 @@ pub fn warning_kind(w: &cowork_supervisor::Warning) -> &'static str {
         W::BadLabel { .. } => "supervisor:bad_label",
         W::NonFinite { .. } => "supervisor:non_finite",
         W::IgnoredSpeech { .. } => "supervisor:ignored_speech",
+        W::UnfinishedDemonstration { .. } => "supervisor:unfinished_demonstration",
     }
 }
 

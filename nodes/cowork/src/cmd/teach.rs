@@ -466,7 +466,7 @@ pub fn learned_between(before: &Ltm, after: &Ltm) -> Vec<Learned> {
     let known: BTreeSet<String> = before.schemas().map(|(_, sc)| compact(&sc.head.to_string())).collect();
     after
         .schemas()
-        .filter(|(_, sc)| sc.kind.is_none() && !known.contains(&compact(&sc.head.to_string())))
+        .filter(|(_, sc)| sc.kind.is_none() && !sc.list.is_empty() && !known.contains(&compact(&sc.head.to_string())))
         .map(|(_, sc)| Learned {
             subtask: compact(&sc.head.to_string()),
             actions: sc.list.iter().map(|e| compact(&e.term.to_string())).collect(),

@@ -70,6 +70,9 @@ pub enum Warning {
     NonFinite { field: String },
     /// A speech command that does not apply in the current mode.
     IgnoredSpeech { text: String, reason: String },
+    /// A demonstrated subtask did not reach its post-condition (the hand closed on nothing,
+    /// or `done` came first): it stays open, and at `done` its actions are forgotten.
+    UnfinishedDemonstration { subtask: String, reason: String },
 }
 
 impl std::fmt::Display for Warning {
@@ -86,6 +89,7 @@ impl std::fmt::Display for Warning {
             Self::BadLabel { label, reason } => write!(f, "bad action label '{label}': {reason}"),
             Self::NonFinite { field } => write!(f, "non-finite value in {field} ignored"),
             Self::IgnoredSpeech { text, reason } => write!(f, "speech '{text}' ignored: {reason}"),
+            Self::UnfinishedDemonstration { subtask, reason } => write!(f, "demonstration of {subtask} unfinished: {reason}"),
         }
     }
 }

@@ -477,6 +477,14 @@ impl Supervisor {
                     return self.warn(ignored("not teaching"));
                 }
                 self.mode = Mode::Execute;
+                // A release in the same tick as `done` still ends its subtask.
+                let mut unfinished = Vec::new();
+                teaching::finish_demonstrated(&self.wm, &mut self.state, &mut self.session, &mut unfinished);
+                let forgotten = teaching::forget_unfinished(&mut self.wm, &mut self.ltm, &self.state);
+                self.ltm_changed |= !forgotten.is_empty();
+                for w in forgotten {
+                    self.warn(w);
+                }
                 let ids: Vec<NodeId> = self.wm.iter().filter(|n| n.taught).map(|n| n.id).collect();
                 for id in ids {
                     if let Some(n) = self.wm.get_mut(id) {
@@ -531,7 +539,11 @@ impl Supervisor {
         let teaching = self.mode == Mode::Teach;
         if teaching {
             attention::update(&mut self.wm, &self.state, &self.cfg);
-            teaching::finish_demonstrated(&self.wm, &mut self.state);
+            let mut unfinished = Vec::new();
+            teaching::finish_demonstrated(&self.wm, &mut self.state, &mut self.session, &mut unfinished);
+            for w in unfinished {
+                out.push(Decision::Warning { message: w.to_string(), warning: w });
+            }
         }
         let report = self.wm.alive(&self.ltm, &mut self.state, self.cfg.max_depth, teaching);
         out.extend(report.accomplished.into_iter().map(|b| Decision::Accomplished { behaviour: b }));

@@ -168,6 +168,21 @@ impl Ltm {
         sid
     }
 
+    /// Empties the learned action list of the specialised schema of `subtask` (it stays,
+    /// open, for another demonstration). The action schemas themselves stay, unreferenced, so
+    /// every [`SchemaId`] handed out stays valid. Returns how many entries were removed.
+    pub fn forget_subtask_actions(&mut self, subtask: &Term) -> usize {
+        let Some(sid) = self.schemas().find(|(_, s)| s.kind.is_none() && &s.head == subtask).map(|(i, _)| i) else { return 0 };
+        let item = &mut self.doc.items[sid];
+        let Clause::Schema(s) = &mut item.clause else { return 0 };
+        let n = s.list.len();
+        s.list.clear();
+        if n > 0 {
+            item.comments.push(format!("{n} actions of an unfinished demonstration forgotten"));
+        }
+        n
+    }
+
     fn validate(&self) -> Result<()> {
         let mut heads: HashMap<String, usize> = HashMap::new();
         let action_functors: Vec<&str> =

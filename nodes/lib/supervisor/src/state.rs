@@ -134,6 +134,18 @@ impl State {
         c.keys.iter().all(|(neg, k)| self.vars.contains(k.as_str()) != *neg)
     }
 
+    /// The first literal of `c` on a variable the gripper events set (`hand.free`,
+    /// `OBJ.taken`, arm-qualified too) that the state contradicts, as written (`tea.taken`).
+    /// Teaching may assert a demonstrated subtask's post-condition, but not these: a hand
+    /// that closed on nothing has not taken the tea box.
+    pub fn unmet_observed(&self, c: &GroundCond) -> Option<String> {
+        let observed = |k: &str| k == "hand.free" || k.ends_with(".hand.free") || k.ends_with(".taken");
+        c.keys
+            .iter()
+            .find(|(neg, k)| observed(k) && self.vars.contains(k.as_str()) == *neg)
+            .map(|(neg, k)| if *neg { format!("~{k}") } else { k.clone() })
+    }
+
     /// Makes a condition true: positive literals set, negated ones cleared (post-conditions).
     pub fn assert_cond(&mut self, c: &GroundCond) {
         for (neg, k) in &c.keys {

@@ -30,6 +30,8 @@ pub struct TeachSession {
     pub last_post: Option<Cond>,
     /// Subtask that acquired the previous action: its term, post-condition, object and arm.
     pub last_subtask: Option<PrevSubtask>,
+    /// Subtasks already reported unfinished in this session (one warning each).
+    pub reported_unfinished: Vec<NodeId>,
 }
 
 /// The subtask that acquired the previous action (it may be finished and gone from the WM).
@@ -199,14 +201,51 @@ fn retreat_owner(wm: &Wm, ltm: &Ltm, session: &TeachSession, won: Option<NodeId>
 }
 
 /// Ends the demonstration of subtasks whose releaser turned false: asserts their
-/// post-condition (the `alive` pass then marks them accomplished).
-pub fn finish_demonstrated(wm: &Wm, state: &mut State) {
-    let done: Vec<GroundCond> = wm
+/// post-condition (the `alive` pass then marks them accomplished) — unless the gripper events
+/// contradict it (the hand closed on nothing: `tea.taken` never held). Such a subtask stays
+/// unfinished and is reported once in `warnings`.
+pub fn finish_demonstrated(wm: &Wm, state: &mut State, session: &mut TeachSession, warnings: &mut Vec<Warning>) {
+    let ended: Vec<(NodeId, GroundCond)> = wm
         .iter()
         .filter(|n| n.kind == NodeKind::Subtask && n.taught && !n.accomplished && !state.eval(&n.releaser))
-        .map(|n| n.post.clone())
+        .map(|n| (n.id, n.post.clone()))
         .collect();
-    for p in done {
-        state.assert_cond(&p);
+    for (id, post) in ended {
+        match state.unmet_observed(&post) {
+            None => state.assert_cond(&post),
+            Some(missing) if !session.reported_unfinished.contains(&id) => {
+                session.reported_unfinished.push(id);
+                let subtask = wm.get(id).map(|n| n.term.to_string()).unwrap_or_default();
+                let reason = format!("its releaser turned false but {missing} does not hold (did the hand close on nothing?)");
+                warnings.push(Warning::UnfinishedDemonstration { subtask, reason });
+            }
+            Some(_) => {}
+        }
     }
+}
+
+/// At `done`: every subtask demonstrated in this session that did not reach its
+/// post-condition is forgotten — its actions leave the working memory and its learned schema
+/// (the LTM keeps the subtask open for another demonstration) — so it is neither declared
+/// accomplished nor executed later without, say, its grasp. Returns one warning per subtask.
+pub fn forget_unfinished(wm: &mut Wm, ltm: &mut Ltm, state: &State) -> Vec<Warning> {
+    let unfinished: Vec<NodeId> = wm
+        .iter()
+        .filter(|n| n.kind == NodeKind::Subtask && n.taught && !n.accomplished && !state.eval(&n.post))
+        .map(|n| n.id)
+        .collect();
+    let mut warnings = Vec::new();
+    for id in unfinished {
+        let Some(n) = wm.get(id) else { continue };
+        let (term, actions) = (n.term.clone(), n.children.len());
+        let missing = state.unmet_observed(&n.post).unwrap_or_else(|| n.post.to_string());
+        ltm.forget_subtask_actions(&term);
+        wm.dealloc_children(id);
+        if let Some(n) = wm.get_mut(id) {
+            (n.taught, n.started, n.n_done) = (false, false, 0);
+        }
+        let reason = format!("{missing} never held; its {actions} demonstrated actions are forgotten and it stays open");
+        warnings.push(Warning::UnfinishedDemonstration { subtask: term.to_string(), reason });
+    }
+    warnings
 }
