@@ -135,7 +135,10 @@ impl FdedOutput {
 struct Track {
     valid: bool,
     stamp: f64,
-    point: Point3<f64>,
+    /// The link's closest distance, m.
+    distance: f64,
+    /// The link's pose (base frame) at that frame.
+    link_pose: Isometry3<f64>,
     velocity: Vector3<f64>,
 }
 
@@ -685,25 +688,34 @@ impl Fded {
             let robot_point = base_from_cam * Point3::from(r.cast::<f64>());
             let obstacle_point = base_from_cam * Point3::from(o.cast::<f64>());
             let normal = base_from_cam.rotation * n_cam.cast::<f64>();
+            let distance = f64::from(b.dist2).sqrt();
+            let link_pose = *self.poses.get(l);
             let track = &mut self.tracks[l];
             let dt = frame.stamp - track.stamp;
-            let velocity = if track.valid && dt > 0.0 {
-                let raw = (obstacle_point - track.point) / dt;
-                if raw.norm() <= vmax {
-                    raw * alpha + track.velocity * (1.0 - alpha)
-                } else {
-                    Vector3::zeros()
+            // The obstacle's speed towards the link, from the distance: u·ȯ = u·ṙ − ḋ, u the
+            // unit vector obstacle → robot point, ṙ the motion of that point of the link since
+            // the last frame. Not from the closest obstacle point's motion: that point jumps
+            // (rim → side of a bottle) as the arm creeps, a "velocity" of 0.6 m/s towards a
+            // still arm from a still bottle; the distance itself is continuous.
+            let velocity = match (robot_point - obstacle_point).try_normalize(1e-9) {
+                Some(u) if track.valid && dt > 0.0 => {
+                    let before = track.link_pose * link_pose.inverse_transform_point(&robot_point);
+                    let towards = u.dot(&(robot_point - before)) / dt - (distance - track.distance) / dt;
+                    if towards.abs() <= vmax {
+                        u * (towards * alpha) + track.velocity * (1.0 - alpha)
+                    } else {
+                        Vector3::zeros()
+                    }
                 }
-            } else {
-                Vector3::zeros()
+                _ => Vector3::zeros(),
             };
             *track = Track {
                 valid: true,
                 stamp: frame.stamp,
-                point: obstacle_point,
+                distance,
+                link_pose,
                 velocity,
             };
-            let distance = f64::from(b.dist2).sqrt();
             out.links[l] = LinkDistance {
                 link: l,
                 valid: true,
