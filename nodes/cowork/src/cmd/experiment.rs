@@ -32,7 +32,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Arguments of `cowork experiment`.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5).
+    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5), coffee-cooperative (Fig. 5.21), coffee-closed-bottle (Fig. 5.22), tea-reuse (Table 5.6).
     pub name: String,
     /// Trials (seeds seed, seed + 1, ...).
     #[arg(long, default_value_t = 1)]

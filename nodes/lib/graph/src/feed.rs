@@ -121,6 +121,13 @@ impl TeachingFeed {
         &self.bags
     }
 
+    /// Leaves out every `word` the teacher says (case-insensitive), e.g. `teach` when it has
+    /// been said already and the arm let go before the demonstration was made.
+    pub fn without_word(mut self, word: &str) -> Self {
+        self.items.retain(|(_, i)| !matches!(i, Item::Speech(s) if s.data.trim().eq_ignore_ascii_case(word)));
+        self
+    }
+
     /// Speech words with their feed times, s.
     pub fn words(&self) -> Vec<(f64, String)> {
         self.items

@@ -195,7 +195,10 @@ const TEA_REUSE: Kitchen = Kitchen {
     used: &[("bottle", 90.0), ("tea", 80.0)],
     thesis: &THESIS_TEA,
     limit_s: 300.0,
-    person_enters_s: (3.0, 20.0),
+    // The robot executes add(water) for 24-29 s, then the teacher guides the arm towards the tea
+    // box; a person entering up to 20 s (before 2026-12-03) could still stand at the table then
+    // (seed 2: the guided arm touched them). The person comes and goes while the robot works.
+    person_enters_s: (3.0, 10.0),
     cooperative: false,
     closed_bottle: false,
     teach_open: Some(Scenario::KinestheticTea),
@@ -359,7 +362,11 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
                     v.reach_targets.first().map_or(f64::NAN, |r| r[0]),
                     v.reach_targets.first().map_or(f64::NAN, |r| r[1]),
                     v.reach_targets.first().map_or(f64::NAN, |r| r[2]),
-                    p.min_distance_m.map_or("-".into(), |d| format!("{:.3} m", d)),
+                    match (p.min_distance_m, &p.closest) {
+                        (Some(d), Some(c)) => format!("{d:.3} m ({}–{} at {:.1} s)", c.link, c.body_part, c.t_s),
+                        (Some(d), None) => format!("{d:.3} m"),
+                        _ => "-".into(),
+                    },
                     p.collisions,
                     p.slowed_cost_s,
                     p.stopped_s
@@ -940,6 +947,11 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
             && now >= end - 0.05
         {
             failure = format!("the task was not accomplished after the demonstration of its open subtask (the clock stopped at {end:.1} s)");
+            // The supervisor says why when the demonstration did not finish its subtask.
+            let log = g.log("attentional_supervisor");
+            if let Some(why) = log.lines().rev().find_map(|l| l.find("demonstration of ").filter(|_| l.contains(" unfinished: ")).map(|i| &l[i..])) {
+                failure = format!("{failure}: {why}");
+            }
             trial.duration_s = elapsed;
             break;
         }
@@ -951,6 +963,22 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
             // Fig. 5.23: the robot waits; the teacher shows the open subtask from here.
             let wall = Instant::now();
             let mut taught = OpenTeaching { scenario: scenario.to_string(), asked_at_s: Some(elapsed), ..OpenTeaching::default() };
+            // The teacher says `teach`, and takes the arm once the manager has let it go and it
+            // is still (open_subtask's module docs).
+            pump.speech.publish(RosString { data: "teach".into() })?;
+            let until = Instant::now() + Duration::from_secs(30);
+            loop {
+                g.check_alive()?;
+                pump.pump(trial)?;
+                let let_go = g.log("robot_manager").contains("teach mode: the arm is let go");
+                if let_go && pump.last_joints.as_ref().is_some_and(|j| open_subtask::still_after(j, now + 0.3)) {
+                    break;
+                }
+                if Instant::now() > until || shutdown::requested() {
+                    bail!("the arm was not let go and still within 30 s of `teach` (logs in {})", g.log_dir().display());
+                }
+                std::thread::sleep(Duration::from_millis(4));
+            }
             let (Some(w), Some(j)) = (&pump.last_world, &pump.last_joints) else { bail!("no /lwr/world or /joint_states before the open subtask") };
             let start = open_subtask::scene_now(&exec_scene, w, j).context("the state the open subtask is taught from")?;
             let bag = open_subtask::synthesise_from(scenario, trial.seed, &start, dir)?;

@@ -4,7 +4,11 @@
 //! the objects are now — `teach`, the guiding wrenches, `gripper close|open`, `done` — into the
 //! same lwr_sim (`--follow-wrench-stamps`), robot manager and supervisor. The demonstration is
 //! synthesised at that moment (`cowork_synth` with [`SynthOptions::start_scene`]), so it starts
-//! from the executed state, not from the scene file's.
+//! from the executed state, not from the scene file's. The teacher says `teach` first and takes
+//! the arm once the manager has let it go and it is still: before that the controller may still
+//! be moving it (the link damper backing away from a person at the table: tea-reuse seed 2 moved
+//! 14 cm between the state the demonstration was made from and its first wrench, and the
+//! open-loop replay closed the hand 6 cm beside the tea box).
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -56,6 +60,14 @@ pub fn scene_now(base: &Scene, world: &WorldState, joints: &JointState) -> Resul
     Ok(scene)
 }
 
+/// Fastest joint allowed while the arm counts as let go and still, rad/s.
+pub const STILL_JOINT_SPEED: f64 = 0.005;
+
+/// Whether `joints` (stamped at least `after_s`, simulated s) shows the arm still.
+pub fn still_after(joints: &JointState, after_s: f64) -> bool {
+    joints.header.stamp.to_secs_f64() >= after_s && !joints.velocity.is_empty() && joints.velocity.iter().all(|v| v.abs() < STILL_JOINT_SPEED)
+}
+
 /// Synthesises the seed's teacher showing `scenario` from `scene` (written beside the bag in
 /// `dir`) and returns the bag.
 pub fn synthesise_from(scenario: Scenario, seed: u64, scene: &Scene, dir: &Path) -> Result<PathBuf> {
@@ -73,7 +85,8 @@ pub fn synthesise_from(scenario: Scenario, seed: u64, scene: &Scene, dir: &Path)
 /// simulated clock, in lockstep with the manager (`poll` drains the runner's readers and
 /// returns the newest `/robot_stream` stamp). Returns the demonstration's length, s.
 pub fn play(node: &mut RosNode, bag: &Path, rate: f64, poll: &mut dyn FnMut() -> Result<Option<f64>, String>) -> Result<f64> {
-    let feed = TeachingFeed::new(node, bag).with_context(|| format!("reading {}", bag.display()))?;
+    // `teach` was said before the demonstration was made (see `wait_let_go`).
+    let feed = TeachingFeed::new(node, bag).with_context(|| format!("reading {}", bag.display()))?.without_word("teach");
     let until = Instant::now() + Duration::from_secs(20);
     while !feed.matched(node, 1, 2) {
         poll().map_err(anyhow::Error::msg)?;

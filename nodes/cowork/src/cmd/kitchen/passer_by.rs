@@ -7,7 +7,7 @@
 //! time the slow-down cost, from the observer's `/human/state`.
 
 use anyhow::Result;
-use cowork_experiment::judge::{Judge, Series};
+use cowork_experiment::judge::{Approach, Judge, Series};
 use cowork_experiment::plan::{Variant, Visit, visitor};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{HumanState, LinkDistances, Skeleton, WorldState};
@@ -41,6 +41,8 @@ pub struct PersonOutcome {
     /// Smallest true distance between a robot link and the body, m (`None`: nobody came
     /// while the joint states were known).
     pub min_distance_m: Option<f64>,
+    /// Where and when that was (simulated s), which link and body part.
+    pub closest: Option<Approach>,
     /// Robot–body contacts (clear → touching).
     pub collisions: u32,
     /// Simulated time the slow-down cost: ∫ (1 − v / v_far) dt over the execution, with v the
@@ -167,6 +169,7 @@ impl PasserBy {
         PersonOutcome {
             variant: self.people.as_ref().map(|(_, v)| v.clone()),
             min_distance_m: self.judge.min_distance(),
+            closest: self.judge.closest.clone(),
             collisions: self.judge.collisions,
             slowed_cost_s: self.slowed_cost_s,
             stopped_s: self.stopped_s,
