@@ -270,10 +270,13 @@ pub struct KitchenTrial {
     /// Actions the manager reported failed (label: reason).
     pub failed_actions: Vec<String>,
     /// `coffee-cooperative`: simulated time from the bottle leaving the workspace to the
-    /// supervisor's next action command, s.
+    /// supervisor's next action command, s — only when the robot was going for the bottle
+    /// then (a replanning); `None` when it was already on another subtask.
     pub replanning_latency_s: Option<f64>,
     /// `coffee-cooperative`: the first action commanded after the bottle left.
     pub replanned_to: Option<String>,
+    /// `coffee-cooperative`: the action the robot was on when the bottle left.
+    pub action_when_taken: Option<String>,
     /// `coffee-closed-bottle`: the stop, the stillness and the resumption.
     pub suspension: Option<SuspendOutcome>,
     /// `tea-reuse`: the open subtask taught during the execution.
@@ -392,8 +395,10 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             );
         }
         if kitchen.cooperative {
+            let on = t.action_when_taken.as_deref().unwrap_or("nothing");
             match (&t.replanned_to, t.replanning_latency_s) {
-                (Some(a), Some(l)) => println!("  bottle taken by the person → next action {a} after {:.3} s (simulated)", l),
+                (Some(a), Some(l)) => println!("  bottle taken by the person during {on} → replanned to {a} after {l:.3} s (simulated)"),
+                (Some(a), None) => println!("  bottle taken by the person during {on}: no replanning needed (next action {a})"),
                 _ => println!("  no action commanded after the bottle was taken"),
             }
         }
@@ -694,6 +699,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         failed_actions: Vec::new(),
         replanning_latency_s: None,
         replanned_to: None,
+        action_when_taken: None,
         suspension: None,
         open_teaching: None,
         series: Series::default(),
@@ -764,6 +770,8 @@ struct ExecPump {
     t_start: Option<f64>,
     /// The person's object left the workspace (`coffee-cooperative`), simulated s.
     t_gone: Option<f64>,
+    /// The newest action the supervisor commanded before that.
+    last_action: Option<String>,
     /// After the task: the world is watched until then (simulated s).
     settle_until: Option<f64>,
 }
@@ -822,8 +830,15 @@ impl ExecPump {
                 && !a.stop
                 && t >= gone
             {
-                trial.replanning_latency_s = Some(t - gone);
+                // A replanning only when the robot was going for the bottle.
+                if self.last_action.as_deref().is_some_and(|l| l.contains(&format!("({})", PERSON_OBJECT.1))) {
+                    trial.replanning_latency_s = Some(t - gone);
+                }
                 trial.replanned_to = Some(a.label.clone());
+                trial.action_when_taken = self.last_action.clone();
+            }
+            if !a.stop && self.t_gone.is_none_or(|g| t < g) {
+                self.last_action = Some(a.label.clone());
             }
         }
         let mut newest = None;
@@ -881,6 +896,7 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
         events: Vec::new(),
         t_start: None,
         t_gone: None,
+        last_action: None,
         settle_until: None,
     };
     let mut g = Graph::new(domain, &dir.join("exec"))?;
