@@ -477,9 +477,9 @@ impl Supervisor {
                     return self.warn(ignored("not teaching"));
                 }
                 self.mode = Mode::Execute;
-                // A release in the same tick as `done` still ends its subtask.
-                let mut unfinished = Vec::new();
-                teaching::finish_demonstrated(&self.wm, &mut self.state, &mut self.session, &mut unfinished);
+                // A release in the same tick as `done` still ends its subtask; what stays
+                // unfinished is reported by `forget_unfinished` below.
+                teaching::finish_demonstrated(&self.wm, &mut self.state, &mut self.session, &mut Vec::new());
                 let forgotten = teaching::forget_unfinished(&mut self.wm, &mut self.ltm, &self.state);
                 self.ltm_changed |= !forgotten.is_empty();
                 for w in forgotten {

@@ -986,8 +986,10 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
             loop {
                 g.check_alive()?;
                 pump.pump(trial)?;
-                let let_go = g.log("robot_manager").contains("teach mode: the arm is let go");
-                if let_go && pump.last_joints.as_ref().is_some_and(|j| open_subtask::still_after(j, now + 0.3)) {
+                // The cheap check first: the manager's log is read only once the arm is still.
+                if pump.last_joints.as_ref().is_some_and(|j| open_subtask::still_after(j, now + 0.3))
+                    && g.log("robot_manager").contains("teach mode: the arm is let go")
+                {
                     break;
                 }
                 if Instant::now() > until || shutdown::requested() {

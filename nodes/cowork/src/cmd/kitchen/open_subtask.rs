@@ -85,7 +85,7 @@ pub fn synthesise_from(scenario: Scenario, seed: u64, scene: &Scene, dir: &Path)
 /// simulated clock, in lockstep with the manager (`poll` drains the runner's readers and
 /// returns the newest `/robot_stream` stamp). Returns the demonstration's length, s.
 pub fn play(node: &mut RosNode, bag: &Path, rate: f64, poll: &mut dyn FnMut() -> Result<Option<f64>, String>) -> Result<f64> {
-    // `teach` was said before the demonstration was made (see `wait_let_go`).
+    // `teach` was said before the demonstration was made (the runner waits for the let-go arm).
     let feed = TeachingFeed::new(node, bag).with_context(|| format!("reading {}", bag.display()))?.without_word("teach");
     let until = Instant::now() + Duration::from_secs(20);
     while !feed.matched(node, 1, 2) {
