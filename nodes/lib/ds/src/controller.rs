@@ -561,6 +561,8 @@ pub struct Diagnostics {
     pub orientation_error_rad: f64,
     /// α_h of eq. 5.3 (times the resume ramp).
     pub alpha: f64,
+    /// Speed the primitive asked for before the nominal-speed limit and α_h (m/s).
+    pub nominal_speed_m_s: f64,
     /// Distance of the end-effector's closest obstacle (m); ∞ when none.
     pub ee_distance_m: f64,
     /// Normal eigenvalue λ₁ used for the end effector (1 when unmodulated).
@@ -592,6 +594,7 @@ impl Default for Diagnostics {
             goal_error_m: f64::NAN,
             orientation_error_rad: 0.0,
             alpha: 0.0,
+            nominal_speed_m_s: 0.0,
             ee_distance_m: f64::INFINITY,
             ee_lambda_normal: 1.0,
             avoid_link: None,
@@ -833,13 +836,13 @@ impl DsController {
         d.age_scale = age_scale;
         let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp * age_scale;
         d.alpha = alpha;
-        let f = match (&cmd.primitive, field) {
+        let nominal = match (&cmd.primitive, field) {
             (Primitive::Learned, Some(field)) => {
                 if self.field_command != Some(cmd.id) {
                     self.field_command = Some(cmd.id);
                     field.reset(&x, &cmd.goal);
                 }
-                let v = field.velocity(&x, &cmd.goal, dt * alpha) * alpha;
+                let v = field.velocity(&x, &cmd.goal, dt * alpha);
                 if !v.iter().all(|c| c.is_finite()) {
                     let fault = Fault::NonFinite { what: "learned primitive velocity", link: usize::MAX };
                     self.brake(&input.q, out, HoldReason::Fault(fault));
@@ -847,8 +850,13 @@ impl DsController {
                 }
                 v
             }
-            _ => adapted_velocity(&cmd.primitive, &x, &cmd.goal) * alpha,
+            _ => adapted_velocity(&cmd.primitive, &x, &cmd.goal),
         };
+        // Eq. 5.3 with α_h in speed units: f(x) is held to the nominal (far) speed, then α_h
+        // scales it, so the end effector's own task never outruns the allowed speed — a linear
+        // DS of gain 8 on a goal 0.3 m away would ask 2.4 m/s.
+        let f = limit_speed(nominal, self.cfg.scaling.far_speed) * alpha;
+        d.nominal_speed_m_s = nominal.norm();
 
         // End effector: closest obstacle of the links rigidly moved by the last joint.
         let mc = &self.cfg.modulation;
@@ -1142,6 +1150,16 @@ impl DsController {
             self.reach.check(&cmd.goal)?;
         }
         Ok(())
+    }
+}
+
+/// `v` shortened to at most `max` (m/s), direction kept.
+fn limit_speed(v: Vector3<f64>, max: f64) -> Vector3<f64> {
+    let speed = v.norm();
+    if speed > max {
+        v * (max / speed)
+    } else {
+        v
     }
 }
 

@@ -97,6 +97,48 @@ fn speed_follows_the_person_far_interaction_stop() {
     assert_eq!(speeds[2], 0.0);
 }
 
+/// A linear DS of high gain (the robot manager's FOA, gain 8) on a goal 0.3 m away asks
+/// 2.4 m/s; the end effector's task speed is still the allowed one: 0.3 m/s with nobody
+/// close, 0.1 m/s with a person interacting (tea-reuse recording before the limit: 0.6–0.72
+/// m/s where α_h allowed 0.3 m/s).
+#[test]
+fn a_high_gain_linear_ds_never_outruns_the_allowed_speed() {
+    let model = common::lwr();
+    let q0 = common::q_start();
+    let x0 = common::tip_position(&model, &q0);
+    let goal = x0 + Vector3::new(0.0, 0.3, 0.0);
+    let mut ctl = DsController::new(model.clone(), ControllerConfig::default()).unwrap();
+    let base = common::input(q0, common::command(common::linear(8.0), goal), 0.0);
+    let (mut far, mut interaction, mut asked) = (0.0f64, 0.0f64, 0.0f64);
+    let q = run(
+        &mut ctl,
+        q0,
+        base,
+        3000,
+        |k, i| {
+            if (600..1200).contains(&k) {
+                i.human.state.present = true;
+                i.human.state.mode = HumanMode::Interaction;
+            }
+        },
+        |k, out| {
+            let speed = out.diagnostics.ee_velocity.norm();
+            asked = asked.max(out.diagnostics.nominal_speed_m_s);
+            if (600..1200).contains(&k) {
+                interaction = interaction.max(speed);
+            } else {
+                far = far.max(speed);
+            }
+        },
+    );
+    eprintln!("asked {asked:.2} m/s; commanded far {far:.3}, interaction {interaction:.3} m/s");
+    assert!(asked > 2.0, "the DS asked {asked} m/s");
+    assert!(far <= 0.3 + 1e-9 && far > 0.29, "far {far} m/s");
+    assert!(interaction <= 0.1 + 1e-9, "interaction {interaction} m/s");
+    let err = (common::tip_position(&model, &q) - goal).norm();
+    assert!(err < 2e-3, "still converges: {err} m");
+}
+
 #[test]
 fn end_effector_stuck_head_on_escapes_tangentially() {
     let model = common::lwr();

@@ -135,6 +135,17 @@ pub struct Approach {
     pub body_part: String,
 }
 
+/// The tool's speed against the speed α_h allowed (the newest `/human/state` at that time).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SpeedPeak {
+    /// Simulated time (s).
+    pub t_s: f64,
+    /// Tool speed from `/lwr/world` (m/s, over ≥ 50 ms).
+    pub speed_m_s: f64,
+    /// Speed α_h allowed then (m/s).
+    pub allowed_m_s: f64,
+}
+
 /// Accumulates one trial.
 #[derive(Debug)]
 pub struct Judge {
@@ -444,6 +455,25 @@ impl Judge {
                 .map(|s| s.1),
         )
         .map(|s| s.median)
+    }
+
+    /// The sample where the tool moved fastest above the speed α_h allowed at that time (the
+    /// largest speed − allowed, which can be negative); `None` before any `/human/state`. With
+    /// `nobody_close`, only samples where α_h was at its largest value of the trial (the far
+    /// speed): the robot's own pace, not its evasion of a hand coming at it (eq. 5.4's
+    /// (I − M) ẋ_O moves the arm with the obstacle, at the obstacle's speed).
+    pub fn fastest_over_allowed(&self, nobody_close: bool) -> Option<SpeedPeak> {
+        let a = &self.series.alpha;
+        let far = a.iter().map(|s| s.1).fold(f64::NEG_INFINITY, f64::max);
+        self.series
+            .tool_speed
+            .iter()
+            .filter_map(|&(t, speed)| {
+                let i = a.partition_point(|s| s.0 <= t).checked_sub(1)?;
+                Some(SpeedPeak { t_s: t, speed_m_s: speed, allowed_m_s: a[i].1 })
+            })
+            .filter(|p| !nobody_close || p.allowed_m_s >= far - 1e-3)
+            .max_by(|x, y| (x.speed_m_s - x.allowed_m_s).total_cmp(&(y.speed_m_s - y.allowed_m_s)))
     }
 
     /// Number of α_h changes between two different non-zero values.

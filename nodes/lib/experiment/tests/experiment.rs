@@ -545,3 +545,38 @@ fn gesture_reactions_are_judged_from_the_tool_speed_and_the_release() {
     let r = reactions(&series, 0.0, 25.0, &performed[..3], &handovers, &[release(0.03)]);
     assert!(!r[0].acted && r[0].note.contains("moved"), "{:?}", r[0]);
 }
+
+/// The tool's speed is judged against the α_h of the newest `/human/state` at that time: 0.2
+/// m/s under 0.3 is within, 0.15 m/s once α_h fell to 0.1 is the peak (+0.05 m/s); with
+/// nobody close, only the 0.3 m/s samples count.
+#[test]
+fn the_fastest_tool_speed_is_judged_against_the_alpha_of_its_time() {
+    use cowork_msgs::msg::HumanState;
+    let model = model();
+    let mut judge = Judge::new(model, cowork_people::DEFAULT_FLOOR_Z).unwrap();
+    assert!(judge.fastest_over_allowed(false).is_none(), "no /human/state yet");
+    let state = |t: f64, alpha: f64| HumanState {
+        header: cowork_msgs::std_msgs::Header { stamp: Time::from_secs_f64(t), ..Default::default() },
+        present: true,
+        speed_scale: alpha,
+        ..HumanState::default()
+    };
+    judge.on_human_state(&state(0.0, 0.3));
+    judge.on_human_state(&state(2.0, 0.1));
+    let mut y = 0.0;
+    // 1/16 s steps: exact in binary, so every step is one sample (≥ 50 ms).
+    for k in 0..=64 {
+        let t = 0.0625 * f64::from(k);
+        let mut w = WorldState::default();
+        w.header.stamp = Time::from_secs_f64(t);
+        w.tool_pose.position = Point { x: 0.5, y, z: 0.3 };
+        judge.on_world(&w);
+        y += if t < 2.0 { 0.2 * 0.0625 } else { 0.15 * 0.0625 };
+    }
+    let peak = judge.fastest_over_allowed(false).unwrap();
+    assert!((peak.speed_m_s - 0.15).abs() < 1e-6 && peak.allowed_m_s == 0.1, "{peak:?}");
+    assert!(peak.t_s > 2.0, "{peak:?}");
+    // Nobody close (α_h at its largest, 0.3 m/s): 0.2 m/s, 0.1 m/s under the allowed speed.
+    let own = judge.fastest_over_allowed(true).unwrap();
+    assert!((own.speed_m_s - 0.2).abs() < 1e-6 && own.allowed_m_s == 0.3 && own.t_s < 2.0, "{own:?}");
+}

@@ -376,6 +376,12 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
                 ),
                 None => println!("  nobody passed by (--no-person)"),
             }
+            if let (Some(f), Some(o)) = (&p.fastest_tool, &p.fastest_tool_far) {
+                println!(
+                    "  tool: fastest against the allowed speed {:.3} m/s at {:.1} s (α_h allowed {:.2} m/s); nobody close {:.3} m/s at {:.1} s (allowed {:.2} m/s)",
+                    f.speed_m_s, f.t_s, f.allowed_m_s, o.speed_m_s, o.t_s, o.allowed_m_s
+                );
+            }
         }
         if kitchen.teach_open.is_some() {
             println!(
@@ -475,6 +481,14 @@ fn summarise(name: &str, kitchen: &Kitchen, trials: Vec<KitchenTrial>) -> Kitche
         summary.insert("replanning_latency_s_median".into(), m);
         summary.insert("replanning_latency_s_max".into(), latencies.iter().copied().fold(f64::NEG_INFINITY, f64::max));
     }
+    let over = trials.iter().filter_map(|t| t.person.as_ref()?.fastest_tool).map(|f| f.speed_m_s - f.allowed_m_s);
+    if let Some(m) = over.reduce(f64::max) {
+        summary.insert("tool_over_allowed_m_s_max".into(), m);
+    }
+    let own = trials.iter().filter_map(|t| t.person.as_ref()?.fastest_tool_far).map(|f| f.speed_m_s - f.allowed_m_s);
+    if let Some(m) = own.reduce(f64::max) {
+        summary.insert("tool_over_far_m_s_max".into(), m);
+    }
     let people: Vec<&PersonOutcome> = trials.iter().filter_map(|t| t.person.as_ref()).filter(|p| p.variant.is_some()).collect();
     if !people.is_empty() {
         summary.insert("person_trials".into(), people.len() as f64);
@@ -534,6 +548,12 @@ fn print_table(run: &KitchenRun, kitchen: &Kitchen) {
             get("min_distance_m").map_or("-".into(), |d| format!("{d:.3}")),
             get("collisions").unwrap_or(0.0)
         );
+    }
+    if let Some(m) = get("tool_over_allowed_m_s_max") {
+        println!("| tool speed above the speed α_h allowed, largest (≥ 50 ms; evading a hand included) | | | | {m:+.3} m/s |");
+    }
+    if let Some(m) = get("tool_over_far_m_s_max") {
+        println!("| tool speed above the far speed with nobody close, largest | | | | {m:+.3} m/s |");
     }
     if let Some(m) = get("resume_latency_s_median") {
         println!("| `repeat` → the stopped task's next action command, median | | | | {m:.3} s |");

@@ -7,7 +7,7 @@
 //! time the slow-down cost, from the observer's `/human/state`.
 
 use anyhow::Result;
-use cowork_experiment::judge::{Approach, Judge, Series};
+use cowork_experiment::judge::{Approach, Judge, Series, SpeedPeak};
 use cowork_experiment::plan::{Variant, Visit, visitor};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{HumanState, LinkDistances, Skeleton, WorldState};
@@ -52,6 +52,10 @@ pub struct PersonOutcome {
     pub stopped_s: f64,
     /// Skeleton frames not sent because the runner fell behind the simulated clock.
     pub frames_dropped: u64,
+    /// Where the tool moved fastest above the speed α_h allowed (from `/lwr/world`).
+    pub fastest_tool: Option<SpeedPeak>,
+    /// The same while α_h was at the far speed (nobody close: the robot's own pace).
+    pub fastest_tool_far: Option<SpeedPeak>,
 }
 
 /// The person of one trial, and the judge of what they did.
@@ -174,6 +178,8 @@ impl PasserBy {
             slowed_cost_s: self.slowed_cost_s,
             stopped_s: self.stopped_s,
             frames_dropped: self.frames_dropped,
+            fastest_tool: self.judge.fastest_over_allowed(false),
+            fastest_tool_far: self.judge.fastest_over_allowed(true),
         }
     }
 }
