@@ -874,9 +874,13 @@ impl DsController {
                 let v = orthonormal_basis(&n);
                 let m = weighted_modulation_matrix_in_basis(&v, o.distance, eps, wgt);
                 let modulated = modulate(&m, &f, &o.obstacle_velocity);
-                xdot = self
+                let escaped = self
                     .escape
                     .step(&self.cfg.escape, &v, o.distance, &f, &modulated);
+                // The tangential eigenvalues (up to 2 at the surface) would speed the tool past
+                // the allowed speed; moving with an obstacle that comes at it stays allowed.
+                let allowed = alpha * self.cfg.scaling.far_speed + o.obstacle_velocity.norm();
+                xdot = limit_speed(escaped, allowed);
                 d.ee_distance_m = o.distance;
                 d.ee_lambda_normal = weighted_eigenvalues(o.distance, eps, wgt).x;
                 d.escaping = self.escape.active();

@@ -139,6 +139,47 @@ fn a_high_gain_linear_ds_never_outruns_the_allowed_speed() {
     assert!(err < 2e-3, "still converges: {err} m");
 }
 
+/// Beside an obstacle the modulation's tangential eigenvalue (up to 2 at the surface) would
+/// double a 0.3 m/s DS (coffee seed 2, before: the tool at 0.60 m/s passing the jar with
+/// nobody close); the tool keeps the allowed speed. An obstacle coming at the arm is still
+/// evaded at its own speed on top (eq. 5.8's (I − M) ẋ_O).
+#[test]
+fn passing_an_obstacle_does_not_speed_the_tool_past_the_allowed_speed() {
+    let model = common::lwr();
+    let q0 = common::q_start();
+    let x0 = common::tip_position(&model, &q0);
+    let goal = x0 + Vector3::new(0.0, 0.4, 0.0);
+    let speed_beside = |obstacle_velocity: Vector3<f64>| {
+        let mut ctl = DsController::new(model.clone(), ControllerConfig::default()).unwrap();
+        let mut input = common::input(q0, common::command(common::constant_speed(0.3), goal), 0.0);
+        input.distances.count = model.link_count();
+        // 5 mm beside the tool, the path tangent to the obstacle's surface.
+        input.distances.links[model.tip_link()] = LinkDistance {
+            valid: true,
+            distance: 0.005,
+            robot_point: Point3::from(x0),
+            obstacle_point: Point3::from(x0 - Vector3::new(0.005, 0.0, 0.0)),
+            normal: Vector3::new(1.0, 0.0, 0.0),
+            obstacle_velocity,
+        };
+        let mut out = ControlOutput::default();
+        // Past the resume ramp so the DS speed is full.
+        for k in 0..300 {
+            input.time = k as f64 * 1e-3;
+            input.distances.stamp = input.time;
+            input.human.stamp = input.time;
+            ctl.step(&input, &mut out).unwrap();
+        }
+        assert!(out.diagnostics.ee_lambda_normal < 0.5, "modulated: {:?}", out.diagnostics);
+        out.diagnostics.ee_velocity
+    };
+    let still = speed_beside(Vector3::zeros());
+    assert!(still.norm() <= 0.3 + 1e-9 && still.y > 0.29, "{still}");
+    let coming = speed_beside(Vector3::new(0.2, 0.0, 0.0));
+    assert!(coming.x > 0.15, "moves away with the obstacle: {coming}");
+    assert!(coming.norm() <= 0.5 + 1e-9, "{coming}");
+}
+
 #[test]
 fn end_effector_stuck_head_on_escapes_tangentially() {
     let model = common::lwr();
