@@ -852,8 +852,8 @@ impl DsController {
             }
             _ => adapted_velocity(&cmd.primitive, &x, &cmd.goal),
         };
-        // Eq. 5.3 with α_h in speed units: f(x) is held to the nominal (far) speed, then α_h
-        // scales it, so the end effector's own task never outruns the allowed speed — a linear
+        // Eq. 5.3 with α_h the allowed speed over the far speed: f(x) is held to the far speed,
+        // then α_h scales it, so the end effector's own task never outruns the allowed speed — a linear
         // DS of gain 8 on a goal 0.3 m away would ask 2.4 m/s.
         let f = limit_speed(nominal, self.cfg.scaling.far_speed) * alpha;
         d.nominal_speed_m_s = nominal.norm();
@@ -890,11 +890,7 @@ impl DsController {
         }
         d.ee_velocity = xdot;
 
-        let mut w = rot_err * self.cfg.ik.orientation_gain;
-        let wn = w.norm();
-        if wn > self.cfg.ik.max_angular_speed {
-            w *= self.cfg.ik.max_angular_speed / wn;
-        }
+        let w = limit_speed(rot_err * self.cfg.ik.orientation_gain, self.cfg.ik.max_angular_speed);
 
         // Null space: closest point of the other moving links.
         let mut task = None;
@@ -1157,7 +1153,7 @@ impl DsController {
     }
 }
 
-/// `v` shortened to at most `max` (m/s), direction kept.
+/// `v` shortened to a norm of at most `max` (m/s, or rad/s for a rotation), direction kept.
 fn limit_speed(v: Vector3<f64>, max: f64) -> Vector3<f64> {
     let speed = v.norm();
     if speed > max {

@@ -34,6 +34,19 @@ fn run(
     q
 }
 
+/// Steps `input` unchanged (the arm not moved) for 0.3 s, past the resume ramp so the DS speed
+/// is full; the last output.
+fn past_the_resume_ramp(ctl: &mut DsController, input: &mut ControlInput) -> ControlOutput {
+    let mut out = ControlOutput::default();
+    for k in 0..300 {
+        input.time = k as f64 * 1e-3;
+        input.distances.stamp = input.time;
+        input.human.stamp = input.time;
+        ctl.step(input, &mut out).unwrap();
+    }
+    out
+}
+
 #[test]
 fn goal_change_mid_motion_converges_to_the_new_goal() {
     let model = common::lwr();
@@ -162,14 +175,7 @@ fn passing_an_obstacle_does_not_speed_the_tool_past_the_allowed_speed() {
             normal: Vector3::new(1.0, 0.0, 0.0),
             obstacle_velocity,
         };
-        let mut out = ControlOutput::default();
-        // Past the resume ramp so the DS speed is full.
-        for k in 0..300 {
-            input.time = k as f64 * 1e-3;
-            input.distances.stamp = input.time;
-            input.human.stamp = input.time;
-            ctl.step(&input, &mut out).unwrap();
-        }
+        let out = past_the_resume_ramp(&mut ctl, &mut input);
         assert!(out.diagnostics.ee_lambda_normal < 0.5, "modulated: {:?}", out.diagnostics);
         out.diagnostics.ee_velocity
     };
@@ -199,14 +205,7 @@ fn end_effector_stuck_head_on_escapes_tangentially() {
         normal: Vector3::new(0.0, -1.0, 0.0),
         obstacle_velocity: Vector3::zeros(),
     };
-    let mut out = ControlOutput::default();
-    // Past the resume ramp so the DS speed is full.
-    for k in 0..300 {
-        input.time = k as f64 * 1e-3;
-        input.distances.stamp = input.time;
-        input.human.stamp = input.time;
-        ctl.step(&input, &mut out).unwrap();
-    }
+    let out = past_the_resume_ramp(&mut ctl, &mut input);
     assert!(out.diagnostics.escaping);
     let v = out.diagnostics.ee_velocity;
     assert!(v.y.abs() < 1e-4, "no motion into the obstacle: {v}");
