@@ -585,6 +585,10 @@ pub struct Diagnostics {
     pub safety: SafetyReport,
     /// Task transition control (a person's push).
     pub contact: ContactReport,
+    /// Factor (0, 1] the whole q̇ was scaled by so the tool's actual speed ‖J_p q̇‖ keeps the
+    /// allowed speed (1: not needed). The IK's lower-priority tasks move the tool through
+    /// released joints and the damped projector's leak.
+    pub tool_speed_scale: f64,
 }
 
 impl Default for Diagnostics {
@@ -609,6 +613,7 @@ impl Default for Diagnostics {
                 ..SafetyReport::default()
             },
             contact: ContactReport::default(),
+            tool_speed_scale: 1.0,
         }
     }
 }
@@ -1009,6 +1014,18 @@ impl DsController {
             input.time - dist.stamp,
             &mut qdot,
         );
+        // The robot's own motion keeps the allowed speed at the tool, whatever the IK's lower
+        // priorities did; a person guiding it (TTC) and obstacles coming at the arm may move it
+        // faster (evasion at the obstacle's speed). Uniform scaling keeps every direction, so
+        // the damper's and the limits' constraints still hold.
+        if self.ttc.idle() {
+            let allowed = alpha * self.cfg.scaling.far_speed + self.approaching_obstacle_speed(dist);
+            let speed = (self.ik.tool_position_jacobian() * qdot).norm();
+            if speed > allowed {
+                d.tool_speed_scale = allowed / speed;
+                qdot *= d.tool_speed_scale;
+            }
+        }
         let k = &self.cfg.ik;
         d.saturation = saturate(
             self.model.joint_limits(),
@@ -1032,6 +1049,18 @@ impl DsController {
         };
         out.diagnostics = d;
         Ok(())
+    }
+
+    /// Fastest obstacle (m/s) within the modulation's influence or the damper's slow distance of
+    /// any link: the arm may evade it at its speed.
+    fn approaching_obstacle_speed(&self, dist: &Distances) -> f64 {
+        let reach = self.cfg.modulation.influence_distance.max(self.cfg.safety.slow_distance);
+        dist.links[..dist.count.min(dist.links.len())]
+            .iter()
+            .filter(|o| o.valid && o.distance < reach)
+            .map(|o| o.obstacle_velocity.norm())
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
     }
 
     /// Holds the robot for a reason found outside [`step`](Self::step) (e.g. stale joint

@@ -122,6 +122,8 @@ pub struct Ik {
     cfg: IkConfig,
     jac: Jacobian,
     pj: PositionJacobian,
+    /// Linear rows of the tip's Jacobian at the last solve, before any joint was released.
+    tool: PositionJacobian,
 }
 
 /// What [`Ik::solve`] reports besides q̇.
@@ -169,6 +171,7 @@ impl Ik {
             cfg,
             jac: Jacobian::zeros(),
             pj: PositionJacobian::zeros(),
+            tool: PositionJacobian::zeros(),
         }
     }
 
@@ -221,6 +224,7 @@ impl Ik {
         report: &mut IkReport,
     ) -> JointVector {
         model.jacobian(poses, tip, &Point3::origin(), &mut self.jac);
+        self.tool = self.jac.fixed_rows::<3>(0).into_owned();
         let mut pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
         let mut q1 = pinv * twist;
         *report = IkReport::default();
@@ -273,6 +277,12 @@ impl Ik {
 }
 
 impl Ik {
+    /// The tip's position Jacobian (m/rad, base frame) at the configuration of the last solve,
+    /// every joint included: the tool's actual linear velocity is this times q̇.
+    pub fn tool_position_jacobian(&self) -> &PositionJacobian {
+        &self.tool
+    }
+
     /// Largest s ∈ [0, 1] with |q̇₁ + s q̇₂| within the speed limits (times the configured
     /// fraction) wherever q̇₁ alone is: the lower-priority tasks use only the speed the
     /// end-effector task leaves, so they never slow it through the uniform velocity scaling.
