@@ -221,6 +221,8 @@ ros_message!(
         KIND_CGMR: u8 = 4,
         /// Hold the current pose.
         KIND_HOLD: u8 = 5,
+        /// HMM primitive: its generated path tracked (Algorithm 3, Sec. 4.1.3).
+        KIND_HMM: u8 = 6,
     }
 );
 

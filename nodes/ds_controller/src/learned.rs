@@ -1,18 +1,21 @@
 //! Learned primitives of `cowork_motion` (DMP eq. 3.3–3.4, GMR-DS eq. 3.6–3.7, C-GMR
-//! Algorithm 1) as [`cowork_ds::LearnedField`]s, decoded from `MotionCommand.parameters_json`.
+//! Algorithm 1, HMM Algorithm 3) as [`cowork_ds::LearnedField`]s, decoded from
+//! `MotionCommand.parameters_json`.
 //!
 //! `parameters_json` holds either a model as `cowork_motion::Model::save` writes it (an object
-//! with `"kind": "dmp" | "gmr" | "cgmr"`), or `{"model_file": "NAME"}` naming such a file inside
+//! with `"kind": "dmp" | "gmr" | "cgmr" | "hmm"`), or `{"model_file": "NAME"}` naming such a file inside
 //! the configured primitive directory ([`ModelFiles`]). The model must be 3-D (TCP position, m,
 //! base frame) and is checked completely when it is read (`cowork_motion::Model::validate`:
 //! array lengths, finiteness, gains), so nothing a peer sends can make the real-time step index
-//! out of bounds. Decoding allocates (ROS side); the fields' `reset` and `velocity` do not
-//! (real-time side).
+//! out of bounds. An HMM's path is generated here, once, at [`HMM_SAMPLE_S`] (its length bounded
+//! by [`HMM_MAX_DURATION_S`] before anything is generated) and tracked by
+//! [`cowork_ds::PathTracker`] (Sec. 4.1.3). Decoding allocates (ROS side); the fields' `reset`
+//! and `velocity` do not (real-time side).
 
 use std::io::Read as _;
 use std::path::{Component, Path, PathBuf};
 
-use cowork_ds::LearnedField;
+use cowork_ds::{LearnedField, PathTracker};
 use cowork_motion::dmp::Dmp;
 use cowork_motion::model::Model;
 use cowork_motion::{Cgmr, GmrDs};
@@ -27,6 +30,39 @@ pub enum Learned {
     Cgmr(CgmrField),
     /// DMP driven by the measured position (see [`DmpField`]).
     Dmp(DmpField),
+    /// The path an HMM generated, translated to the start and tracked with position feedback.
+    Hmm(PathTracker),
+}
+
+/// Sampling of an HMM's generated path (s).
+pub const HMM_SAMPLE_S: f64 = 0.01;
+
+/// Longest HMM path the controller generates (s): a model whose expected state durations add up
+/// to more is refused before its path is generated (a peer cannot make the node allocate
+/// without bound).
+pub const HMM_MAX_DURATION_S: f64 = 600.0;
+
+/// The HMM's generated path as a tracker (see the module docs).
+fn hmm_path(m: &cowork_motion::hmm::HmmPrimitive) -> Result<PathTracker, String> {
+    let l = m.states.len();
+    // Upper bound of the generated length: every state's expected stay (samples), as
+    // `HmmPrimitive::generate` computes it, whether or not the state sequence visits it.
+    let samples: f64 = (0..l)
+        .map(|i| {
+            let aii = m.trans[i * l + i];
+            let d = if aii < 1.0 - 1e-9 { 1.0 / (1.0 - aii) } else { m.durations[i] };
+            d.round().max(1.0)
+        })
+        .sum();
+    let duration = samples * m.dt;
+    if !(duration <= HMM_MAX_DURATION_S) {
+        return Err(format!(
+            "the HMM's expected state durations add up to {duration:.1} s (at most {HMM_MAX_DURATION_S} s)"
+        ));
+    }
+    let tr = m.generate(None, HMM_SAMPLE_S).map_err(|e| format!("the HMM generates no path: {e}"))?;
+    PathTracker::from_flat(&tr.pos, &tr.vel, HMM_SAMPLE_S, cowork_ds::tracker::DEFAULT_GAIN)
+        .map_err(|e| format!("the HMM's generated path: {e}"))
 }
 
 /// C-GMR state: activation ω and time since the start of the motion.
@@ -103,7 +139,7 @@ impl ModelFiles {
     }
 }
 
-/// Decodes `parameters_json` for a command of kind `kind` ("dmp", "gmr" or "cgmr"); a
+/// Decodes `parameters_json` for a command of kind `kind` ("dmp", "gmr", "cgmr" or "hmm"); a
 /// `model_file` is read only as `files` allows.
 pub fn decode(kind: &str, parameters_json: &str, files: &ModelFiles) -> Result<Learned, String> {
     if parameters_json.trim().is_empty() {
@@ -135,7 +171,7 @@ pub fn decode(kind: &str, parameters_json: &str, files: &ModelFiles) -> Result<L
             }
             Learned::Dmp(DmpField { model: m, x0: Vector3::zeros(), v: Vector3::zeros(), s: 1.0 })
         }
-        Model::Hmm(_) => return Err("HMM primitives are not executed by ds_controller".into()),
+        Model::Hmm(m) => Learned::Hmm(hmm_path(&m)?),
     })
 }
 
@@ -144,9 +180,10 @@ fn nan3() -> Vector3<f64> {
 }
 
 impl LearnedField for Learned {
-    fn reset(&mut self, x0: &Vector3<f64>, _goal: &Vector3<f64>) {
+    fn reset(&mut self, x0: &Vector3<f64>, goal: &Vector3<f64>) {
         match self {
             Learned::Gmr(_) => {}
+            Learned::Hmm(p) => p.reset(x0, goal),
             Learned::Cgmr(c) => {
                 c.omega = 0.0;
                 c.t = 0.0;
@@ -163,6 +200,7 @@ impl LearnedField for Learned {
     fn velocity(&mut self, x: &Vector3<f64>, goal: &Vector3<f64>, dt: f64) -> Vector3<f64> {
         let mut out = [0.0; 3];
         match self {
+            Learned::Hmm(p) => return p.velocity(x, goal, dt),
             Learned::Gmr(m) => {
                 if m.velocity_towards(x.as_slice(), goal.as_slice(), &mut out).is_err() {
                     return nan3();

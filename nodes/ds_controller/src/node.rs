@@ -220,7 +220,7 @@ impl Adapter {
         Ok(HumanState { present: msg.present, mode, stopped: msg.stopped })
     }
 
-    /// `/motion/command` → the motion (with its decoded model for DMP / GMR / C-GMR), or why
+    /// `/motion/command` → the motion (with its decoded model for DMP / GMR / C-GMR / HMM), or why
     /// it cannot run.
     pub fn command(&self, msg: &MotionCommandMsg) -> Result<(MotionCommand, Option<Learned>), Rejection> {
         let bad = |reason: String| Err(Rejection { reason });
@@ -236,10 +236,14 @@ impl Adapter {
                 Primitive::ConstantSpeed(ConstantSpeed { speed, smoothing })
             }
             MotionCommandMsg::KIND_HOLD => Primitive::Hold,
-            k @ (MotionCommandMsg::KIND_DMP | MotionCommandMsg::KIND_GMR | MotionCommandMsg::KIND_CGMR) => {
+            k @ (MotionCommandMsg::KIND_DMP
+            | MotionCommandMsg::KIND_GMR
+            | MotionCommandMsg::KIND_CGMR
+            | MotionCommandMsg::KIND_HMM) => {
                 let kind = match k {
                     MotionCommandMsg::KIND_DMP => "dmp",
                     MotionCommandMsg::KIND_GMR => "gmr",
+                    MotionCommandMsg::KIND_HMM => "hmm",
                     _ => "cgmr",
                 };
                 match learned::decode(kind, &msg.parameters_json, &self.model_files) {

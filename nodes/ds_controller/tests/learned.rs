@@ -276,3 +276,63 @@ fn malformed_models_are_rejected_with_a_reason() {
     assert!(e.to_string().contains("learned model"), "{e}");
     assert!(matches!(out.status, cowork_ds::Status::Held(_)));
 }
+
+/// An HMM primitive (Algorithm 3, Sec. 4.1.3) runs as its generated path, translated to the
+/// tool's start and tracked: the tool ends where the demonstrations' displacement takes it from
+/// there, whatever the command's goal (which only says when the motion counts as converged).
+#[test]
+fn an_hmm_primitive_runs_its_generated_path_from_the_start() {
+    let model = lwr();
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    let d = demos();
+    let hmm = Model::fit(ModelKind::Hmm, &d, &FitOptions::default()).expect("fit");
+    let Model::Hmm(h) = &hmm else { unreachable!("an HMM was fitted") };
+    let tr = h.generate(None, 0.01).expect("generate");
+    let n = tr.pos.len();
+    let displacement = Vector3::new(tr.pos[n - 3] - tr.pos[0], tr.pos[n - 2] - tr.pos[1], tr.pos[n - 1] - tr.pos[2]);
+    let end = x0 + displacement;
+    let json = serde_json::to_string(&hmm).expect("json");
+    // The goal sent is the path's end: the status converges there.
+    let (err, _, vmax) = run(&model, &command(8, MotionCommandMsg::KIND_HMM, end, json), 4.0);
+    eprintln!("HMM: {:.1} mm from the end of its path ({:.3} m away), max commanded speed {vmax:.3} m/s", err * 1e3, displacement.norm());
+    assert!(displacement.norm() > 0.2, "the demonstrations move {displacement:?}");
+    assert!(err < 0.005, "the tool ended {err} m from the HMM path's end");
+}
+
+/// HMMs a peer could send to stall or crash the node: refused with the field named, before a
+/// path is generated.
+#[test]
+fn bad_hmm_models_are_refused_before_they_run() {
+    let model = lwr();
+    let adapter = Adapter::new(&model, &Params::default());
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    let edit = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut v = serde_json::to_value(Model::fit(ModelKind::Hmm, &demos(), &FitOptions::default()).expect("fit")).expect("json");
+        f(&mut v);
+        v.to_string()
+    };
+    let cases: Vec<(String, &str)> = vec![
+        // A state that never ends (a_ii = 1) with a duration of 10⁹ samples: 10⁷ s of path.
+        (
+            edit(&|v| {
+                let l = v["states"].as_array().expect("states").len();
+                v["trans"][0] = serde_json::json!(1.0);
+                v["durations"][0] = serde_json::json!(1e9);
+                assert!(l > 1);
+            }),
+            "expected state durations",
+        ),
+        (edit(&|v| { v["trans"].as_array_mut().expect("trans").pop(); }), "trans"),
+        (edit(&|v| { v["states"][2]["mean"] = serde_json::json!([0.1, 0.2]); }), "states[2].mean"),
+        (edit(&|v| { v["dt"] = serde_json::json!(0.0); }), "dt"),
+        (edit(&|v| { v["states"][1]["t_var"] = serde_json::json!(-1.0); }), "states[1]"),
+    ];
+    for (json, field) in cases {
+        let r = adapter.command(&command(9, MotionCommandMsg::KIND_HMM, x0, json)).expect_err("refused");
+        assert!(r.reason.contains(field), "{field}: {}", r.reason);
+    }
+    // An HMM sent as another kind is refused too.
+    let json = edit(&|_| {});
+    let r = adapter.command(&command(10, MotionCommandMsg::KIND_GMR, x0, json)).expect_err("refused");
+    assert!(r.reason.contains("hmm model"), "{}", r.reason);
+}

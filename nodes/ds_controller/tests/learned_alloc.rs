@@ -1,5 +1,6 @@
-//! The learned primitives' real-time path allocates nothing: 3 × 2000 controller steps with a
-//! GMR, C-GMR and DMP field (models decoded beforehand, as the ROS side does).
+//! The learned primitives' real-time path allocates nothing: 4 × 2000 controller steps with a
+//! GMR, C-GMR, DMP and HMM field (models decoded beforehand, as the ROS side does; the HMM's
+//! path is generated there).
 
 use std::path::PathBuf;
 
@@ -40,6 +41,7 @@ fn learned_steps_allocate_nothing() {
         (ModelKind::Gmr, MotionCommandMsg::KIND_GMR),
         (ModelKind::Cgmr, MotionCommandMsg::KIND_CGMR),
         (ModelKind::Dmp, MotionCommandMsg::KIND_DMP),
+        (ModelKind::Hmm, MotionCommandMsg::KIND_HMM),
     ]
     .into_iter()
     .enumerate()
@@ -78,6 +80,6 @@ fn learned_steps_allocate_nothing() {
         }
     }
     let allocated = cowork_testkit::allocations() - before;
-    assert_eq!(allocated, 0, "{allocated} allocations in 6000 learned steps");
+    assert_eq!(allocated, 0, "{allocated} allocations in 8000 learned steps");
     assert!(out.diagnostics.goal_error_m.is_finite());
 }

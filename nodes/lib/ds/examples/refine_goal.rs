@@ -16,12 +16,14 @@
 
 use std::path::PathBuf;
 
+use cowork_ds::tracker::{DEFAULT_GAIN, PathTracker};
 use cowork_ds::{
     ControlInput, ControlOutput, ControllerConfig, Distances, DsController, ExternalWrench, HumanInput,
-    HumanState, LearnedField, MotionCommand, Primitive, TtcConfig,
+    HumanState, MotionCommand, Primitive, TtcConfig,
 };
 use cowork_motion::Demonstration;
 use cowork_motion::hmm::{HmmConfig, HmmPrimitive};
+use cowork_people::guide::Guide;
 use cowork_robot::{JointVector, RobotModel};
 use nalgebra::Vector3;
 
@@ -30,53 +32,9 @@ const DT: f64 = 1e-3;
 /// Sampling of the generated path and of the executed demonstration (s).
 const SAMPLE: f64 = 0.01;
 const T_CONTACT: f64 = 3.0;
-const KP: f64 = 5.0;
-
-/// The HMM's generated path as a learned field: reference velocity plus position feedback, its
-/// clock advanced by the controller's (α_h-scaled) time.
-#[derive(Debug)]
-struct Tracker {
-    pos: Vec<Vector3<f64>>,
-    vel: Vec<Vector3<f64>>,
-    tau: f64,
-}
-
-impl Tracker {
-    fn at(&self, tau: f64) -> (Vector3<f64>, Vector3<f64>) {
-        let s = tau / SAMPLE;
-        let i = (s.floor() as usize).min(self.pos.len() - 1);
-        let j = (i + 1).min(self.pos.len() - 1);
-        let a = (s - i as f64).clamp(0.0, 1.0);
-        let v = if tau >= (self.pos.len() - 1) as f64 * SAMPLE { Vector3::zeros() } else { self.vel[i] * (1.0 - a) + self.vel[j] * a };
-        (self.pos[i] * (1.0 - a) + self.pos[j] * a, v)
-    }
-}
-
-impl LearnedField for Tracker {
-    fn reset(&mut self, _x0: &Vector3<f64>, _goal: &Vector3<f64>) {
-        self.tau = 0.0;
-    }
-
-    fn velocity(&mut self, x: &Vector3<f64>, _goal: &Vector3<f64>, dt: f64) -> Vector3<f64> {
-        self.tau += dt;
-        let (p, v) = self.at(self.tau);
-        v + (p - x) * KP
-    }
-}
 
 fn demonstration(a: Vector3<f64>, b: Vector3<f64>, duration: f64, bow: f64) -> Demonstration {
-    let n = (duration / SAMPLE).round() as usize + 1;
-    let rest = (0.5 / SAMPLE) as usize;
-    let mut t = Vec::new();
-    let mut pos = Vec::new();
-    for k in 0..n + rest {
-        let s = (k as f64 / (n - 1) as f64).min(1.0);
-        let m = 10.0 * s.powi(3) - 15.0 * s.powi(4) + 6.0 * s.powi(5);
-        let p = a + (b - a) * m + Vector3::new(0.0, 0.0, bow * (std::f64::consts::PI * s).sin());
-        t.push(k as f64 * SAMPLE);
-        pos.extend_from_slice(p.as_slice());
-    }
-    Demonstration::new(3, t, pos, None).expect("demonstration")
+    Demonstration::minimum_jerk(a.as_slice(), b.as_slice(), &[0.0, 0.0, bow], duration, 0.5, SAMPLE).expect("demonstration")
 }
 
 struct Execution {
@@ -90,10 +48,9 @@ struct Execution {
 fn execute(model: &RobotModel, q_start: &JointVector, goal: Vector3<f64>, hmm: &HmmPrimitive, g_new: Option<Vector3<f64>>) -> Execution {
     let x0 = model.link_pose(q_start, model.tip_link()).translation.vector;
     let tr = hmm.generate(Some(x0.as_slice()), SAMPLE).expect("generate");
-    let pos: Vec<Vector3<f64>> = tr.pos.chunks(3).map(Vector3::from_column_slice).collect();
-    let vel: Vec<Vector3<f64>> = tr.vel.chunks(3).map(Vector3::from_column_slice).collect();
-    let reference = pos.clone();
-    let mut field = Tracker { pos, vel, tau: 0.0 };
+    let mut field = PathTracker::from_flat(&tr.pos, &tr.vel, SAMPLE, DEFAULT_GAIN).expect("path");
+    let reference = field.positions().to_vec();
+    let teacher = g_new.and_then(|g| Guide::new(reference.clone(), SAMPLE, T_CONTACT, g));
     let cfg = ControllerConfig { ttc: TtcConfig { enabled: true, ..TtcConfig::default() }, ..ControllerConfig::default() };
     let f_i = cfg.ttc.insert_force;
     let mut ctl = DsController::new(model.clone(), cfg).expect("config");
@@ -119,15 +76,8 @@ fn execute(model: &RobotModel, q_start: &JointVector, goal: Vector3<f64>, hmm: &
         };
         // The teacher: the primitive's own path until t_c, then bent smoothly to end at g′
         // 0.5 s before the reference ends; pressing ≥ 16 N towards where the tool should be.
-        let wrench = g_new.and_then(|g_new| {
-            let s = ((t - T_CONTACT) / (end - 0.5 - T_CONTACT)).clamp(0.0, 1.0);
-            let m = s * s * (3.0 - 2.0 * s);
-            let i = ((t / SAMPLE) as usize).min(reference.len() - 1);
-            let target = reference[i] + (g_new - reference[reference.len() - 1]) * m;
-            let e = target - x;
-            (t >= T_CONTACT && e.norm() >= 1e-4)
-                .then(|| ExternalWrench { stamp: t, link: tip, force: e.normalize() * (3000.0 * e.norm()).clamp(16.0, 40.0) })
-        });
+        let wrench =
+            teacher.as_ref().and_then(|g| g.push(t, &x)).map(|force| ExternalWrench { stamp: t, link: tip, force });
         if wrench.is_some_and(|w| w.force.norm() >= f_i) && ex.first_contact.is_none() {
             ex.first_contact = Some(t);
         }

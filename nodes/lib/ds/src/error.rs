@@ -17,6 +17,12 @@ pub enum Error {
         /// The admissible range.
         reason: &'static str,
     },
+    /// A sampled path ([`crate::tracker::PathTracker`]) is empty, ragged or not finite.
+    #[error("learned path: {reason}")]
+    Path {
+        /// What is wrong, naming the sample.
+        reason: String,
+    },
 }
 
 /// Which input stream a fault is about.

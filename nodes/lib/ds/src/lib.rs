@@ -7,7 +7,8 @@
 //! into joint rates, avoiding the closest link point in the null space, and saturates joint
 //! positions and speeds. [`DsController`] runs it all at 1 kHz with a stale-input watchdog and
 //! never allocates in [`DsController::step`]. [`ttc`] is the task transition control of Sec.
-//! 4.1.2 (a person's physical guidance blended with the primitive by force). No ROS dependency.
+//! 4.1.2 (a person's physical guidance blended with the primitive by force); [`tracker`] runs a
+//! generated path (an HMM's, Sec. 4.1.3) as a learned field. No ROS dependency.
 //!
 //! Frames and units: robot base frame, m, rad, s.
 //!
@@ -45,6 +46,7 @@ pub mod modulation;
 pub mod primitive;
 pub mod safety;
 pub mod scaling;
+pub mod tracker;
 pub mod ttc;
 
 pub use controller::{
@@ -56,4 +58,5 @@ pub use error::{Error, Fault, Result, Stream};
 pub use primitive::{FirstOrderDs, LearnedField, Primitive};
 pub use safety::{SafetyConfig, SafetyReport};
 pub use scaling::{HumanMode, HumanState};
+pub use tracker::PathTracker;
 pub use ttc::{Contact, Stack, Ttc, TtcConfig, TtcReport};

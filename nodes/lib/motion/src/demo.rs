@@ -54,6 +54,35 @@ impl Demonstration {
         Ok(Self { dim, t, pos, vel })
     }
 
+    /// A synthetic point-to-point demonstration (how a person moves an object from one place
+    /// to another): a minimum-jerk profile from `start` to `end` over `duration_s` plus
+    /// `bow`·sin(π s) (an arc, zero at both ends; s the normalised time), then `rest_s` at rest at
+    /// `end` (the person holds the object there), sampled every `dt` s from t = 0. `start`,
+    /// `end` and `bow` have the same length (the dimension; m or the data's unit).
+    pub fn minimum_jerk(start: &[f64], end: &[f64], bow: &[f64], duration_s: f64, rest_s: f64, dt: f64) -> Result<Self> {
+        let dim = start.len();
+        check_dim("minimum-jerk end", dim, end.len())?;
+        check_dim("minimum-jerk bow", dim, bow.len())?;
+        if !(dt.is_finite() && dt > 0.0 && duration_s.is_finite() && duration_s >= 2.0 * dt) {
+            return Err(invalid("minimum-jerk timing", format!("duration {duration_s} s with period {dt} s")));
+        }
+        if !(rest_s.is_finite() && rest_s >= 0.0) {
+            return Err(invalid("minimum-jerk rest", format!("{rest_s} s")));
+        }
+        let n = (duration_s / dt).round() as usize + 1;
+        let total = n + (rest_s / dt).round() as usize;
+        let mut t = Vec::with_capacity(total);
+        let mut pos = Vec::with_capacity(total * dim);
+        for k in 0..total {
+            let s = (k as f64 / (n - 1) as f64).min(1.0);
+            let m = 10.0 * s.powi(3) - 15.0 * s.powi(4) + 6.0 * s.powi(5);
+            let arc = (std::f64::consts::PI * s).sin();
+            t.push(k as f64 * dt);
+            pos.extend((0..dim).map(|j| start[j] + (end[j] - start[j]) * m + bow[j] * arc));
+        }
+        Self::new(dim, t, pos, None)
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.t.len()
@@ -140,4 +169,21 @@ pub fn mean_end_point(demos: &[Demonstration]) -> Result<Vec<f64>> {
         }
     }
     Ok(g)
+}
+
+#[cfg(test)]
+mod minimum_jerk_tests {
+    use super::*;
+
+    #[test]
+    fn goes_from_start_to_end_with_the_bow_then_rests() {
+        let d = Demonstration::minimum_jerk(&[0.0, 0.0], &[1.0, 0.0], &[0.0, 0.1], 2.0, 0.5, 0.01).expect("demo");
+        assert_eq!(d.len(), 251);
+        assert_eq!(d.position(0), &[0.0, 0.0]);
+        assert!((d.position(100)[0] - 0.5).abs() < 1e-12 && (d.position(100)[1] - 0.1).abs() < 1e-12);
+        assert!((d.position(200)[0] - 1.0).abs() < 1e-12 && d.position(200)[1].abs() < 1e-12);
+        assert_eq!(d.position(250), d.position(200));
+        assert!(Demonstration::minimum_jerk(&[0.0], &[1.0, 0.0], &[0.0], 2.0, 0.0, 0.01).is_err());
+        assert!(Demonstration::minimum_jerk(&[0.0], &[1.0], &[0.0], f64::NAN, 0.0, 0.01).is_err());
+    }
 }

@@ -10,7 +10,7 @@
 //! Xsens suit (120 Hz) or a depth tracker (30 Hz, lost frames, jitter) would, with Gaussian
 //! noise per segment. [`GestureSet`] draws a labelled set of gesture performances across sizes,
 //! speeds, positions and viewing angles; [`body_capsules`] gives the capsule body the depth
-//! renderer draws.
+//! renderer draws. [`guide::Guide`] is a person who physically guides the robot's tool (Sec. 4.1.3).
 //!
 //! ```
 //! use cowork_people::{Action, BodySize, GestureKind, GestureStyle, Performer, Room, SensorConfig, Stance, Timeline, Sampler};
@@ -34,6 +34,7 @@ mod capsule;
 mod error;
 mod features;
 mod gesture_set;
+pub mod guide;
 mod kinematics;
 mod motion;
 mod performer;
