@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ManagerError, Result};
 use crate::primitive::Primitive;
+use crate::refine::HmmEntry;
 
 /// Format version written in the file.
 pub const FORMAT: u32 = 1;
@@ -27,12 +28,16 @@ pub struct Database {
     pub next_index: u32,
     /// Primitives by key (the label functor).
     pub primitives: BTreeMap<String, Primitive>,
+    /// HMM primitives by key, each with its refinement history ([`crate::refine`]); absent
+    /// from the file when there is none.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub hmm: BTreeMap<String, HmmEntry>,
 }
 
 impl Database {
     /// An empty database.
     pub fn new(robot: &str) -> Self {
-        Self { format: FORMAT, robot: robot.to_owned(), next_index: 1, primitives: BTreeMap::new() }
+        Self { format: FORMAT, robot: robot.to_owned(), next_index: 1, primitives: BTreeMap::new(), hmm: BTreeMap::new() }
     }
 
     /// The file of `robot` in `dir`.
@@ -75,6 +80,7 @@ impl Database {
                 return Err(invalid(key, "next_index", format!("{} is not above this primitive's number", db.next_index)));
             }
         }
+        crate::refine::check_entries(&db).map_err(|(id, field, reason)| invalid(&id, &field, reason))?;
         Ok(db)
     }
 

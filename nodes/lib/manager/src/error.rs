@@ -68,6 +68,15 @@ pub enum ManagerError {
         /// Why.
         reason: String,
     },
+    /// An HMM primitive cannot be added or refined (not an HMM, bad demonstration or contact
+    /// time, unusable result); nothing was changed.
+    #[error("cannot refine primitive `{id}`: {reason}; the database is unchanged")]
+    Refine {
+        /// Primitive key.
+        id: String,
+        /// Why.
+        reason: String,
+    },
     /// No primitive has this key.
     #[error("no primitive `{id}` in the database of robot `{robot}`")]
     NotFound {

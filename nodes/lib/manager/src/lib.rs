@@ -11,7 +11,9 @@
 //! * [`primitive`] — NOA as position + orientation DMPs (`cowork_motion`, γ = 5 / duration,
 //!   K = 70, D = 2√K), FOA as a linear DS to the end pose, goals and demonstrations in the
 //!   object's frame (goal adaptation, eq. 5.2); reproduction error against the demonstration;
-//! * [`database`] — one JSON file per robot, written atomically, reloaded byte for byte.
+//! * [`database`] — one JSON file per robot, written atomically, reloaded byte for byte;
+//! * [`refine`] — HMM primitives refined by kinesthetic guidance (Sec. 4.1.3), saved atomically
+//!   with their history (version, time, which states changed).
 //!
 //! State for the supervisor (held object, `hand.free`) comes from the world report, i.e. from
 //! what the simulator did, never from what was commanded.
@@ -30,6 +32,7 @@ pub mod error;
 pub mod label;
 pub mod manager;
 pub mod primitive;
+pub mod refine;
 pub mod segment;
 pub mod world;
 
@@ -41,6 +44,7 @@ pub use manager::{
     ActionReport, ActionRequest, Input, Manager, MotionOrder, MotionReport, MotionState, Mode, Output, SegmentReport,
     Stamp, VOCABULARY,
 };
+pub use refine::{HmmEntry, Revision};
 pub use primitive::{MotionPlan, Primitive, ReproductionError, StoredPose, reproduction_error};
 pub use segment::{ActionKind, GripperCommand, Note, Segment, Segmenter};
 pub use world::{ObjectReport, World, WorldReport};
