@@ -32,7 +32,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Arguments of `cowork experiment`.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5), coffee-cooperative (Fig. 5.21), coffee-closed-bottle (Fig. 5.22), tea-reuse (Table 5.6).
+    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5), coffee-cooperative (Fig. 5.21), coffee-closed-bottle (Fig. 5.22), tea-reuse (Table 5.6), refine-goal (Sec. 4.1.3, Fig. 4.4).
     pub name: String,
     /// Trials (seeds seed, seed + 1, ...).
     #[arg(long, default_value_t = 1)]
@@ -84,6 +84,10 @@ pub struct ExperimentArgs {
     /// up to the table, reaches once into the robot's workspace and leaves).
     #[arg(long)]
     pub no_person: bool,
+    /// refine-goal: most refined executions (rounds of one execution with the person and one
+    /// alone) before the trial fails.
+    #[arg(long, default_value_t = 5)]
+    pub refinements: u32,
     /// Wall-clock seconds to wait for every node to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,
@@ -99,8 +103,12 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     if super::kitchen::NAMES.contains(&args.name.as_str()) {
         return super::kitchen::run(&args);
     }
+    if super::refine::NAMES.contains(&args.name.as_str()) {
+        return super::refine::run(&args);
+    }
     if !cowork_experiment::plan::NAMES.contains(&args.name.as_str()) {
-        let known: Vec<&str> = cowork_experiment::plan::NAMES.iter().chain(&super::kitchen::NAMES).copied().collect();
+        let known: Vec<&str> =
+            cowork_experiment::plan::NAMES.iter().chain(&super::kitchen::NAMES).chain(&super::refine::NAMES).copied().collect();
         bail!("unknown experiment `{}`; known: {}", args.name, known.join(", "));
     }
     if args.trials == 0 {

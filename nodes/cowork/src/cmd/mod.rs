@@ -14,6 +14,7 @@ pub mod learn;
 pub mod observe;
 pub mod report;
 pub mod primitives;
+pub mod refine;
 pub mod robot;
 pub mod say;
 pub mod scenario;
