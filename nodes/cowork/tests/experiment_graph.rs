@@ -1,6 +1,7 @@
 //! `cowork experiment` in the real graph: node processes over DDS on a private domain, sim
-//! clock. One short stacking-hri trial (a few simulated seconds), and a node that dies at
-//! start-up. Both check that nothing is left running afterwards.
+//! clock. One short stacking-hri trial (a few simulated seconds), one round of refine-goal
+//! (Sec. 4.1.3), and a node that dies at
+//! start-up. Each checks that nothing is left running afterwards.
 //!
 //! Needs the node binaries beside `cowork` (a workspace `cargo test` or `cargo build --bins`
 //! builds them).
@@ -63,8 +64,8 @@ fn cowork(args: &[&str], limit: Duration) -> (bool, String) {
     }
 }
 
-/// Every pid the runner listed is gone.
-fn nothing_left(logs: &Path) {
+/// Every pid the runner listed is gone (and it listed at least `at_least`).
+fn nothing_left(logs: &Path, at_least: usize) {
     let mut n = 0;
     for entry in std::fs::read_dir(logs).unwrap() {
         let pids = entry.unwrap().path().join("pids.txt");
@@ -83,7 +84,7 @@ fn nothing_left(logs: &Path) {
             );
         }
     }
-    assert!(n >= 4, "pids.txt lists the graph's processes ({n})");
+    assert!(n >= at_least, "pids.txt lists the graph's processes ({n})");
 }
 
 #[test]
@@ -140,7 +141,7 @@ fn one_short_stacking_trial_runs_in_the_graph_and_stops_it() {
     assert!(done < total, "{t}");
     assert!(t["min_distance_m"].as_f64().unwrap() > 0.0, "{t}");
     assert_eq!(t["collisions"], 0);
-    nothing_left(&logs);
+    nothing_left(&logs, 4);
 }
 
 #[test]
@@ -187,7 +188,7 @@ fn a_node_that_dies_fails_the_trial_and_stops_the_graph() {
         reason.contains("fded_distance exited") && reason.contains("simulated crash"),
         "{reason}"
     );
-    nothing_left(&logs);
+    nothing_left(&logs, 4);
 }
 
 #[test]
@@ -268,5 +269,59 @@ fn one_short_gestures_trial_starts_on_a_recognised_come() {
         "{t}"
     );
     assert_eq!(t["collisions"], 0);
-    nothing_left(&logs);
+    nothing_left(&logs, 4);
+}
+
+/// One round of refine-goal (thesis Sec. 4.1.3) in the graph: the learned pick-and-place alone,
+/// once with the person pushing towards g′ from 3 s on, once alone after the refinement. Judged
+/// from what lwr_sim reported (the tool on /lwr/world, the push on /lwr/external_wrench) and
+/// from the primitive database the runner saved.
+#[test]
+fn one_refinement_round_moves_the_pick_and_place_towards_the_new_goal() {
+    let bins = bin_dir();
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("run.json");
+    let logs = dir.path().join("logs");
+    let (ok, out) = cowork(
+        &[
+            "experiment",
+            "refine-goal",
+            "--seed",
+            "2",
+            "--refinements",
+            "1",
+            "--json",
+            json.to_str().unwrap(),
+            "--logs",
+            logs.to_str().unwrap(),
+            "--bin-dir",
+            bins.to_str().unwrap(),
+        ],
+        Duration::from_secs(240),
+    );
+    assert!(ok, "{out}");
+    let run: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let t = &run["trials"][0];
+    let ex = t["executions"].as_array().unwrap_or_else(|| panic!("{t}"));
+    assert_eq!(ex.len(), 3, "{out}");
+    let f = |e: &serde_json::Value, k: &str| e[k].as_f64().unwrap_or_else(|| panic!("{k}: {e}"));
+    // Alone, the learned primitive ends far from g′ (g and g′ are 167 mm apart).
+    assert!(f(&ex[0], "error_at_new_goal_mm") > 120.0, "{}", ex[0]);
+    // The person's push reached lwr_sim from 3 s on and took the tool to g′.
+    assert_eq!(ex[1]["pushed"], true);
+    let contact = f(&ex[1], "first_contact_s");
+    assert!((2.9..3.3).contains(&contact), "{}", ex[1]);
+    assert!(f(&ex[1], "max_push_n") >= 15.0, "{}", ex[1]);
+    assert!(f(&ex[1], "error_at_new_goal_mm") < 5.0, "{}", ex[1]);
+    // Alone after one refinement the robot ends markedly closer to g′.
+    assert_eq!(ex[2]["pushed"], false);
+    assert_eq!(ex[2]["version"], 2);
+    assert!(f(&ex[2], "error_at_new_goal_mm") < f(&ex[0], "error_at_new_goal_mm") - 40.0, "{out}");
+    // The database the runner saved holds the refined model with its history.
+    let db = cowork_manager::Database::load(Path::new(t["database"].as_str().unwrap())).unwrap();
+    let e = db.hmm("pick_place").unwrap();
+    assert_eq!((e.version, e.history.len()), (2, 1));
+    assert!((e.history[0].t_contact_s - contact).abs() < 1e-9);
+    assert!(!e.history[0].kept_states.is_empty(), "{:?}", e.history[0]);
+    nothing_left(&logs, 2);
 }

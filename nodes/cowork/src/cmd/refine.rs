@@ -107,6 +107,8 @@ pub struct ExecutionRow {
     pub first_contact_s: Option<f64>,
     /// Largest push reported (N).
     pub max_push_n: f64,
+    /// From the runner's command to ds_controller's first status of it (s, sim clock).
+    pub start_delay_s: Option<f64>,
     /// Tool end point (m, base frame).
     pub end_m: [f64; 3],
     /// Distance of the end point to g′ (mm).
@@ -472,6 +474,7 @@ struct Run {
     first_contact_s: Option<f64>,
     max_push_n: f64,
     sim_end: f64,
+    start_delay_s: Option<f64>,
 }
 
 /// Linear interpolation of stamped samples on the grid `t0 + k·dt`, k < n (clamped at the ends).
@@ -608,9 +611,9 @@ impl Trial<'_> {
             }
         }
         self.io.recording = false;
-        // The execution's clock starts at ds_controller's first step of the command (its
-        // status), not when the runner sent it: DDS and the loaded machine add tens of ms.
-        let t_cmd = self.io.started_at.filter(|&t| (t_cmd..t_cmd + 0.5).contains(&t)).unwrap_or(t_cmd);
+        // How long ds_controller took to start the command (its first status of it), for the
+        // JSON; the execution's clock stays the runner's send time.
+        let start_delay_s = self.io.started_at.map(|t| t - t_cmd);
         let samples = std::mem::take(&mut self.io.samples);
         if samples.len() < 2 {
             bail!("no /lwr/world reports during the execution");
@@ -627,6 +630,7 @@ impl Trial<'_> {
             first_contact_s: self.io.first_report.map(|t| t - t_cmd),
             max_push_n: self.io.max_report,
             sim_end: self.io.now(),
+            start_delay_s,
         })
     }
 }
@@ -771,6 +775,7 @@ fn study(trial: &mut Trial<'_>, db: &mut Database, db_path: &Path, seed: u64, re
         pushed,
         first_contact_s: r.first_contact_s,
         max_push_n: r.max_push_n,
+        start_delay_s: r.start_delay_s,
         end_m: [r.end.x, r.end.y, r.end.z],
         error_at_new_goal_mm: (r.end - g_new).norm() * 1e3,
         error_at_goal_mm: (r.end - g).norm() * 1e3,
