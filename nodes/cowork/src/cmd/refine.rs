@@ -862,7 +862,7 @@ mod tests {
         let r = resample(&s, 1.0, 0.01, 7);
         let x: Vec<f64> = r.iter().map(|p| (p.x * 1e6).round() / 1e6).collect();
         assert_eq!(x, vec![0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.05]);
-        assert!((max_deviation(&r, &vec![Vector3::zeros(); 7], 3) - 0.02).abs() < 1e-12);
+        assert!((max_deviation(&r, &[Vector3::zeros(); 7], 3) - 0.02).abs() < 1e-12);
         // The same path twice as slow: no offset in space, a deviation in time.
         let slow: Vec<_> = (0..7).map(|k| Vector3::new(0.005 * k as f64, 0.0, 0.0)).collect();
         assert!(max_offset(&slow, &r, 7) < 1e-12);

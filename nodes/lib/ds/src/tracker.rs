@@ -62,7 +62,7 @@ impl PathTracker {
     /// [`new`](Self::new) from row-major 3-D `[x, y, z, x, y, z, …]` positions and velocities
     /// (the layout of `cowork_motion::Trajectory`).
     pub fn from_flat(pos: &[f64], vel: &[f64], sample_s: f64, gain: f64) -> Result<Self> {
-        if pos.len() % 3 != 0 || vel.len() % 3 != 0 {
+        if !pos.len().is_multiple_of(3) || !vel.len().is_multiple_of(3) {
             return Err(Error::Path {
                 reason: format!("{} position and {} velocity values are not 3-D samples", pos.len(), vel.len()),
             });
