@@ -1051,14 +1051,22 @@ impl DsController {
         Ok(())
     }
 
-    /// Fastest obstacle (m/s) within the modulation's influence or the damper's slow distance of
-    /// any link: the arm may evade it at its speed.
+    /// Fastest approach (m/s, closing speed along the closest-point line) of an obstacle that is
+    /// not a known scene object, within the modulation's influence or the damper's slow
+    /// distance of any link: the arm may evade it at that speed. Scene objects stand still (their
+    /// depth-image velocities are noise) and obstacles moving away need no evasion.
     fn approaching_obstacle_speed(&self, dist: &Distances) -> f64 {
         let reach = self.cfg.modulation.influence_distance.max(self.cfg.safety.slow_distance);
-        dist.links[..dist.count.min(dist.links.len())]
+        let n = dist.count.min(dist.links.len());
+        dist.links[..n]
             .iter()
-            .filter(|o| o.valid && o.distance < reach)
-            .map(|o| o.obstacle_velocity.norm())
+            .zip(&dist.scene_object[..n])
+            .filter(|(o, scene)| o.valid && !**scene && o.distance < reach)
+            .map(|(o, _)| {
+                let towards = o.robot_point - o.obstacle_point;
+                let len = towards.norm();
+                if len > 1e-6 { (towards / len).dot(&o.obstacle_velocity).max(0.0) } else { o.obstacle_velocity.norm() }
+            })
             .filter(|v| v.is_finite())
             .fold(0.0, f64::max)
     }
