@@ -24,6 +24,10 @@ use std::process::Command;
 
 use anyhow::{Context as _, Result, bail};
 
+pub mod policy;
+
+pub use policy::Policy;
+
 /// The files of an enclave, as ROS 2's rmw layers look for them.
 pub const ENCLAVE_FILES: [&str; 6] = [
     "identity_ca.cert.pem",
@@ -355,10 +359,16 @@ fn cowork_write(path: &Path, bytes: &[u8]) -> Result<()> {
 /// `ros2 security create_enclave DIR NAME`: `enclaves/<name>/` with a new P-256 key
 /// (`key.pem`, mode 600), its certificate `cert.pem` (subject `CN=<name>`, signed by the
 /// identity CA), `permissions.xml` / `permissions.p7s` (signed by the permissions CA: every
-/// topic, every domain), and links to the keystore's CA certificates and governance. Returns
-/// the enclave directory. An existing enclave's key and certificate are replaced.
-pub fn create_enclave(keystore: &Path, name: &str) -> Result<PathBuf> {
+/// topic, or with a `policy` only the topics it grants the enclave; every domain), and links
+/// to the keystore's CA certificates and governance. Returns the enclave directory. An
+/// existing enclave's key and certificate are replaced. An enclave the policy does not list
+/// is refused before anything is written.
+pub fn create_enclave(keystore: &Path, name: &str, policy: Option<&Policy>) -> Result<PathBuf> {
     let name = normalise_enclave(name)?;
+    if let Some(p) = policy {
+        // Refuse before writing anything: the dates are placeholders.
+        p.permissions_xml(&name, DOMAINS, "", "")?;
+    }
     let (public, private, enclaves) = (keystore.join("public"), keystore.join("private"), keystore.join("enclaves"));
     for f in [public.join("identity_ca.cert.pem"), public.join("permissions_ca.cert.pem"),
               private.join("identity_ca.key.pem"), private.join("permissions_ca.key.pem"),
@@ -398,7 +408,11 @@ pub fn create_enclave(keystore: &Path, name: &str) -> Result<PathBuf> {
     let dates = openssl(&["x509", "-in", path_str(&cert)?, "-noout", "-startdate", "-enddate"], "reading certificate dates")?;
     let (not_before, not_after) = xml_dates(&dates)?;
     let perm_xml = dir.join("permissions.xml");
-    cowork_write(&perm_xml, permissions_xml(&name, DOMAINS.0, DOMAINS.1, &not_before, &not_after).as_bytes())?;
+    let permissions = match policy {
+        Some(p) => p.permissions_xml(&name, DOMAINS, &not_before, &not_after)?,
+        None => permissions_xml(&name, DOMAINS.0, DOMAINS.1, &not_before, &not_after),
+    };
+    cowork_write(&perm_xml, permissions.as_bytes())?;
     sign(
         &perm_xml,
         &dir.join("permissions.p7s"),
@@ -489,6 +503,22 @@ mod tests {
         std::fs::write(dir.path().join("enclaves/n/identity_ca.cert.pem"), "x").unwrap();
         let e = format!("{:#}", s.enclave_dir().unwrap_err());
         assert!(e.contains("cert.pem is missing"), "{e}");
+    }
+
+    #[test]
+    fn a_policy_enclave_grants_its_topics_only_and_an_unlisted_one_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let ks = dir.path().join("ks");
+        create_keystore(&ks).unwrap();
+        let policy = Policy::from_file(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../config/security/policy.xml")).unwrap();
+        let e = create_enclave(&ks, "human_observer", Some(&policy)).unwrap();
+        let xml = std::fs::read_to_string(e.join("permissions.xml")).unwrap();
+        assert!(xml.contains("<topic>rt/human/state</topic>") && !xml.contains("<topic>*</topic>"), "{xml}");
+        assert!(!xml.contains("rt/lwr/joint_velocity_command"), "{xml}");
+        assert!(e.join("permissions.p7s").is_file());
+        let err = format!("{:#}", create_enclave(&ks, "stranger", Some(&policy)).unwrap_err());
+        assert!(err.contains("no enclave /stranger"), "{err}");
+        assert!(!ks.join("enclaves/stranger").exists(), "nothing written for a refused enclave");
     }
 
     #[test]

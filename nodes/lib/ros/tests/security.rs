@@ -108,9 +108,9 @@ fn keystore_and_enclaves_have_the_sros2_layout_and_real_signatures() {
         assert!(ks.join(f).is_file(), "{f} missing");
     }
     assert!(create_keystore(&ks).unwrap_err().to_string().contains("already holds a keystore"));
-    let e = create_enclave(&ks, "lwr_sim").expect("enclave");
+    let e = create_enclave(&ks, "lwr_sim", None).expect("enclave");
     assert_eq!(e, ks.join("enclaves/lwr_sim"));
-    let nested = create_enclave(&ks, "/robot/ds_controller").expect("nested enclave");
+    let nested = create_enclave(&ks, "/robot/ds_controller", None).expect("nested enclave");
     for d in [&e, &nested] {
         for f in ENCLAVE_FILES.iter().chain(&["permissions.xml"]) {
             assert!(d.join(f).is_file(), "{} missing", d.join(f).display());
@@ -141,8 +141,8 @@ fn keystore_and_enclaves_have_the_sros2_layout_and_real_signatures() {
         let mode = std::fs::metadata(e.join("key.pem")).unwrap().permissions().mode();
         assert_eq!(mode & 0o077, 0, "key.pem mode {mode:o}");
     }
-    assert!(create_enclave(&ks, "/../escape").is_err());
-    assert!(create_enclave(&dir.path().join("nothing"), "n").unwrap_err().to_string().contains("is not a keystore"));
+    assert!(create_enclave(&ks, "/../escape", None).is_err());
+    assert!(create_enclave(&dir.path().join("nothing"), "n", None).unwrap_err().to_string().contains("is not a keystore"));
 }
 
 #[test]
@@ -150,7 +150,7 @@ fn enforce_refuses_to_start_without_usable_credentials_permissive_runs() {
     let dir = tempfile::tempdir().expect("tempdir");
     let ks = dir.path().join("keystore");
     create_keystore(&ks).expect("keystore");
-    create_enclave(&ks, "node").expect("enclave");
+    create_enclave(&ks, "node", None).expect("enclave");
     let ks_s = ks.to_str().unwrap();
     let domain = private_domain();
     let run = |env: Vec<(&str, &str)>| {
@@ -163,7 +163,7 @@ fn enforce_refuses_to_start_without_usable_credentials_permissive_runs() {
     assert_eq!(code, Some(3), "{out}");
     assert!(out.contains("Enforce") && out.contains("no enclave /node") && out.contains("none/enclaves/node"), "{out}");
     // An enclave that lacks its key.
-    create_enclave(&ks, "nokey").expect("enclave");
+    create_enclave(&ks, "nokey", None).expect("enclave");
     std::fs::remove_file(ks.join("enclaves/nokey/key.pem")).unwrap();
     let (code, out) = run(secured(ks_s, "Enforce", "/nokey"));
     assert_eq!(code, Some(3), "{out}");
@@ -178,7 +178,7 @@ fn enforce_refuses_to_start_without_usable_credentials_permissive_runs() {
         assert_eq!(code, Some(0), "{out}");
         assert!(out.contains("DDS security on"), "{out}");
         // A certificate that is not one: the security plugins refuse it.
-        create_enclave(&ks, "badcert").expect("enclave");
+        create_enclave(&ks, "badcert", None).expect("enclave");
         std::fs::write(ks.join("enclaves/badcert/cert.pem"), "-----BEGIN CERTIFICATE-----\nAAAA\n-----END CERTIFICATE-----\n").unwrap();
         let (code, out) = run(secured(ks_s, "Enforce", "/badcert"));
         assert_eq!(code, Some(3), "{out}");
@@ -196,12 +196,12 @@ fn secured_nodes_talk_and_peers_without_our_credentials_get_nothing_through() {
     let dir = tempfile::tempdir().expect("tempdir");
     let ks = dir.path().join("keystore");
     create_keystore(&ks).expect("keystore");
-    create_enclave(&ks, "listener").expect("enclave");
-    create_enclave(&ks, "talker").expect("enclave");
+    create_enclave(&ks, "listener", None).expect("enclave");
+    create_enclave(&ks, "talker", None).expect("enclave");
     // A rogue with a complete SROS2 keystore of its own CA.
     let rogue_ks = dir.path().join("rogue");
     create_keystore(&rogue_ks).expect("keystore");
-    create_enclave(&rogue_ks, "talker").expect("enclave");
+    create_enclave(&rogue_ks, "talker", None).expect("enclave");
     let (ks_s, rogue_s) = (ks.to_str().unwrap(), rogue_ks.to_str().unwrap());
     let domain = private_domain();
     let listener = child_cmd("listen", domain, &secured(ks_s, "Enforce", "/listener")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("listener");
