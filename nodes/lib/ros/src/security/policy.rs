@@ -90,6 +90,16 @@ impl Policy {
         self.enclaves.iter().find(|(p, _)| p == path).map(|(_, r)| r)
     }
 
+    /// The rules of enclave `path`, or an error naming the enclaves the policy lists.
+    pub fn listed(&self, path: &str) -> Result<&EnclaveRules> {
+        self.enclave(path).with_context(|| {
+            format!(
+                "the policy has no enclave {path} (it lists {})",
+                self.enclaves.iter().map(|(p, _)| p.as_str()).collect::<Vec<_>>().join(", ")
+            )
+        })
+    }
+
     /// Parses a policy document (see the module docs).
     pub fn parse(text: &str) -> Result<Self> {
         let mut reader = quick_xml::Reader::from_str(text);
@@ -197,12 +207,7 @@ impl Policy {
     /// with its topics, a deny rule before it when the policy denies any, everything else
     /// denied. Errors when the policy has no such enclave.
     pub fn permissions_xml(&self, enclave: &str, domains: (u16, u16), not_before: &str, not_after: &str) -> Result<String> {
-        let rules = self.enclave(enclave).with_context(|| {
-            format!(
-                "the policy has no enclave {enclave} (it lists {})",
-                self.enclaves.iter().map(|(p, _)| p.as_str()).collect::<Vec<_>>().join(", ")
-            )
-        })?;
+        let rules = self.listed(enclave)?;
         let topics = |set: &BTreeSet<String>, indent: &str| {
             set.iter().map(|t| format!("{indent}<topic>{t}</topic>\n")).collect::<String>()
         };
