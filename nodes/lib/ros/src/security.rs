@@ -213,40 +213,9 @@ pub fn governance_xml(domain_min: u16, domain_max: u16) -> String {
 /// topic on domains `domain_min..=domain_max` from `not_before` to `not_after`
 /// (`YYYY-MM-DDThh:mm:ss`, UTC); everything else denied.
 pub fn permissions_xml(enclave: &str, domain_min: u16, domain_max: u16, not_before: &str, not_after: &str) -> String {
-    format!(
-        r#"<?xml version="1.0" encoding="UTF-8"?>
-<dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xsi:noNamespaceSchemaLocation="http://www.omg.org/spec/DDS-SECURITY/20170901/omg_shared_ca_permissions.xsd">
-  <permissions>
-    <grant name="{enclave}">
-      <subject_name>CN={enclave}</subject_name>
-      <validity>
-        <not_before>{not_before}</not_before>
-        <not_after>{not_after}</not_after>
-      </validity>
-      <allow_rule>
-        <domains>
-          <id_range>
-            <min>{domain_min}</min>
-            <max>{domain_max}</max>
-          </id_range>
-        </domains>
-        <publish>
-          <topics>
-            <topic>*</topic>
-          </topics>
-        </publish>
-        <subscribe>
-          <topics>
-            <topic>*</topic>
-          </topics>
-        </subscribe>
-      </allow_rule>
-      <default>DENY</default>
-    </grant>
-  </permissions>
-</dds>
-"#
-    )
+    let every = || std::iter::once("*".to_owned()).collect();
+    let rules = policy::EnclaveRules { publish: every(), subscribe: every(), ..Default::default() };
+    policy::render_permissions(enclave, &rules, (domain_min, domain_max), not_before, not_after)
 }
 
 /// Domains a new keystore's governance and permissions cover (every valid `ROS_DOMAIN_ID`).
@@ -518,6 +487,14 @@ mod tests {
         let err = format!("{:#}", create_enclave(&ks, "stranger", Some(&policy)).unwrap_err());
         assert!(err.contains("no enclave /stranger"), "{err}");
         assert!(!ks.join("enclaves/stranger").exists(), "nothing written for a refused enclave");
+    }
+
+    #[test]
+    fn without_a_policy_an_enclave_may_use_every_topic() {
+        let xml = permissions_xml("/n", 0, 232, "2026-12-04T00:00:00", "2036-12-01T00:00:00");
+        assert!(xml.contains("<subject_name>CN=/n</subject_name>") && xml.contains("<default>DENY</default>"), "{xml}");
+        assert_eq!(xml.matches("<topic>*</topic>").count(), 2, "publish and subscribe: {xml}");
+        assert!(xml.contains("<min>0</min>") && xml.contains("<max>232</max>") && !xml.contains("deny_rule"), "{xml}");
     }
 
     #[test]

@@ -207,7 +207,14 @@ impl Policy {
     /// with its topics, a deny rule before it when the policy denies any, everything else
     /// denied. Errors when the policy has no such enclave.
     pub fn permissions_xml(&self, enclave: &str, domains: (u16, u16), not_before: &str, not_after: &str) -> Result<String> {
-        let rules = self.listed(enclave)?;
+        Ok(render_permissions(enclave, self.listed(enclave)?, domains, not_before, not_after))
+    }
+}
+
+/// The DDS permissions document granting `rules` to subject `CN=<enclave>` (see
+/// [`Policy::permissions_xml`]).
+pub(super) fn render_permissions(enclave: &str, rules: &EnclaveRules, domains: (u16, u16), not_before: &str, not_after: &str) -> String {
+    {
         let topics = |set: &BTreeSet<String>, indent: &str| {
             set.iter().map(|t| format!("{indent}<topic>{t}</topic>\n")).collect::<String>()
         };
@@ -229,7 +236,7 @@ impl Policy {
             rules_xml += &rule("deny_rule", &rules.deny_publish, &rules.deny_subscribe);
         }
         rules_xml += &rule("allow_rule", &rules.publish, &rules.subscribe);
-        Ok(format!(
+        format!(
             r#"<?xml version="1.0" encoding="UTF-8"?>
 <dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance" xsi:noNamespaceSchemaLocation="http://www.omg.org/spec/DDS-SECURITY/20170901/omg_shared_ca_permissions.xsd">
   <permissions>
@@ -244,7 +251,7 @@ impl Policy {
   </permissions>
 </dds>
 "#
-        ))
+        )
     }
 }
 
