@@ -3,7 +3,7 @@
 //!
 //! Per trial (seed): five synthetic demonstrations of a pick-and-place from the pick point P to
 //! the goal g (minimum-jerk with a lift, durations, arcs and end points drawn from the seed)
-//! teach an HMM primitive (left-to-right, 7 states, 1 Gaussian, η = 0.6), stored in a primitive
+//! teach an HMM primitive (left-to-right, 7 states, 1 Gaussian, η = 0.7), stored in a primitive
 //! database of the trial (`cowork_manager`). `lwr_sim` (execute mode: a push is reported on
 //! `/lwr/external_wrench`, the arm moves only as commanded; no depth camera) and
 //! `ds_controller` (task transition control on, from `--ds-params`) run as processes on a
@@ -76,7 +76,7 @@ pub const THESIS_EXECUTIONS: u32 = 3;
 /// The learned model's settings (Sec. 4.1.3: 7 states, 1 Gaussian; η the weight of the new
 /// demonstration in the refinement).
 pub fn hmm_config() -> HmmConfig {
-    HmmConfig { states: 7, forgetting: 0.6, ..HmmConfig::default() }
+    HmmConfig { states: 7, forgetting: 0.7, ..HmmConfig::default() }
 }
 
 /// Five demonstrations of the pick-and-place from P to g, drawn from `seed`: 4.6–5.4 s,

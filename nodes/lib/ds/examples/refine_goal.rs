@@ -3,7 +3,7 @@
 //! saturation and the TTC blend), kinematic closed loop on the LWR (q integrated; no DDS).
 //!
 //! A pick-and-place learned from five demonstrations (HMM, left-to-right, 7 states, 1
-//! Gaussian, η = 0.6) runs as a learned primitive (its generated path tracked with position
+//! Gaussian, η = 0.7) runs as a learned primitive (its generated path tracked with position
 //! feedback). A scripted teacher presses the tool (≥ 16 N, above f_s) towards a goal g′ 12 cm
 //! off the learned one from t_c = 3 s on; each executed trajectory refines the HMM after the
 //! first contact (`HmmPrimitive::refine_after`, App. A.3.3); the robot then runs alone.
@@ -97,7 +97,7 @@ fn main() {
     let g_new = goal + Vector3::new(0.12, 0.0, 0.0);
     let demos: Vec<Demonstration> =
         [0.0, 0.01, -0.01, 0.02, -0.02].iter().map(|&bow| demonstration(x0, goal, 4.0, bow)).collect();
-    let mut hmm = HmmPrimitive::fit(&demos, &HmmConfig { states: 7, forgetting: 0.6, ..HmmConfig::default() }).expect("fit");
+    let mut hmm = HmmPrimitive::fit(&demos, &HmmConfig { states: 7, forgetting: 0.7, ..HmmConfig::default() }).expect("fit");
     let last = |e: &Execution| *e.path.last().expect("path");
     let before = execute(&model, &q_start, goal, &hmm, None);
     let fit_error = (last(&before) - goal).norm();

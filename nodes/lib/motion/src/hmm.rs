@@ -13,6 +13,10 @@ use crate::ds::Trajectory;
 use crate::error::{MotionError, Result, check_dim, check_finite, invalid};
 use crate::linalg::{LN_2PI, chol_logdet, cholesky, logsumexp, solve_lower};
 
+/// Most samples (at the learned period) a generated trajectory may have: a model whose state
+/// durations add up to more is refused rather than allocated.
+pub const MAX_GENERATED_SAMPLES: usize = 1_000_000;
+
 /// Learning settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -236,7 +240,8 @@ impl HmmPrimitive {
     /// Forward–backward in log space on emission log-likelihoods `logb` (`T × L`): returns the
     /// log-likelihood, `γ` (`T × L`) and the expected transition counts (`L × L`). Log space keeps
     /// it exact when every reachable state is far from a sample (no underflow floor needed).
-    fn forward_backward(&self, logb: &[f64], t_len: usize) -> (f64, Vec<f64>, Vec<f64>) {
+    /// With `end`, only state sequences that end in that state count.
+    fn forward_backward(&self, logb: &[f64], t_len: usize, end: Option<usize>) -> (f64, Vec<f64>, Vec<f64>) {
         let l = self.l();
         let ln = |p: f64| if p > 0.0 { p.ln() } else { f64::NEG_INFINITY };
         let la: Vec<f64> = self.trans.iter().map(|&p| ln(p)).collect();
@@ -254,8 +259,16 @@ impl HmmPrimitive {
                 alpha[t * l + j] = logsumexp(&tmp) + logb[t * l + j];
             }
         }
-        let ll = logsumexp(&alpha[(t_len - 1) * l..]);
         let mut beta = vec![0.0; t_len * l];
+        if let Some(e) = end {
+            for j in 0..l {
+                if j != e {
+                    alpha[(t_len - 1) * l + j] = f64::NEG_INFINITY;
+                    beta[(t_len - 1) * l + j] = f64::NEG_INFINITY;
+                }
+            }
+        }
+        let ll = logsumexp(&alpha[(t_len - 1) * l..]);
         for t in (0..t_len - 1).rev() {
             for i in 0..l {
                 for j in 0..l {
@@ -320,7 +333,7 @@ impl HmmPrimitive {
             for t in 0..t_len {
                 self.log_b(&e, &s[t * n..(t + 1) * n], &mut logb[t * l..(t + 1) * l]);
             }
-            let (ll, g, xi) = self.forward_backward(&logb, t_len);
+            let (ll, g, xi) = self.forward_backward(&logb, t_len, None);
             total_ll += w * ll;
             for i in 0..l {
                 prior[i] += w * g[i];
@@ -508,31 +521,18 @@ impl HmmPrimitive {
         }
         let (n, l) = (self.dim, self.l());
         // Step 6: deterministic state sequence.
-        let mut q = Vec::new();
-        let mut i = self
-            .prior
-            .iter()
-            .enumerate()
-            .max_by(|a, b| a.1.total_cmp(b.1))
-            .map_or(0, |(i, _)| i);
-        let mut visited = vec![false; l];
-        loop {
-            visited[i] = true;
-            let aii = self.trans[i * l + i];
-            let d = if aii < 1.0 - 1e-9 {
-                1.0 / (1.0 - aii)
-            } else {
-                self.durations[i]
-            };
-            let d = d.round().max(1.0) as usize;
-            q.extend(std::iter::repeat_n(i, d));
-            let next = (0..l)
-                .filter(|&j| j != i)
-                .max_by(|a, b| self.trans[i * l + a].total_cmp(&self.trans[i * l + b]));
-            match next {
-                Some(j) if self.trans[i * l + j] > 0.0 && !visited[j] => i = j,
-                _ => break,
-            }
+        let order = self.visiting_order();
+        let runs: Vec<f64> = order.iter().map(|&i| self.expected_duration(i).round().max(1.0)).collect();
+        let samples: f64 = runs.iter().sum();
+        if !(samples <= MAX_GENERATED_SAMPLES as f64) {
+            return Err(invalid(
+                "durations / trans",
+                format!("the state durations add up to {samples:.3e} samples (at most {MAX_GENERATED_SAMPLES})"),
+            ));
+        }
+        let mut q = Vec::with_capacity(samples as usize);
+        for (&i, &d) in order.iter().zip(&runs) {
+            q.extend(std::iter::repeat_n(i, d as usize));
         }
         // Step 7–8: relative time and responsibilities from the temporal model.
         let to = Self::relative_time(&q);
@@ -544,7 +544,9 @@ impl HmmPrimitive {
                 logb[t * l + k] = -0.5 * (LN_2PI + s.t_var.ln()) - 0.5 * z * z / s.t_var;
             }
         }
-        let (_, gamma, _) = self.forward_backward(&logb, t_len);
+        // Q ends in its last state: so do the responsibilities (a free end smears the last states'
+        // outputs into the end point).
+        let (_, gamma, _) = self.forward_backward(&logb, t_len, q.last().copied());
         // Step 9–10. Each state's time variable is extended linearly beyond its own run in Q
         // (`(t − start_k + ½)/d_k`), so that `ˢo_k(t)` is continuous in t; with the literal
         // per-run `ᵗo(t)`, which jumps from ≈1 to ≈0 at every state change, the mixture A.30 jumps
@@ -605,59 +607,186 @@ impl HmmPrimitive {
         Ok(tr)
     }
 
-    /// Incremental refinement (App. A.3.3): a weighted Baum–Welch on the new demonstration
-    /// (weight `η`) and the trajectory generated by the current model (weight `1 − η`), starting
-    /// from the current parameters; then the temporal terms are recomputed.
-    pub fn refine(&mut self, demo: &Demonstration) -> Result<()> {
-        check_dim("HMM refinement demonstration", self.dim, demo.dim)?;
-        let generated = self.generate(None, self.dt)?;
-        let seqs: Vec<&[f64]> = vec![demo.pos.as_slice(), generated.pos.as_slice()];
-        let eta = self.config.forgetting;
-        let weights = [eta, 1.0 - eta];
-        let mut prev = f64::NEG_INFINITY;
-        for _ in 0..self.config.max_iter {
-            let (ll, _) = self.baum_welch_step(&seqs, &weights)?;
-            if (ll - prev).abs() < self.config.tol * (demo.len() + generated.len()) as f64 {
-                break;
-            }
-            prev = ll;
-        }
-        self.temporal_terms(&seqs, &weights)
+    /// Expected number of samples the model stays in state `i` (unrounded): `1/(1 − aᵢᵢ)`, or
+    /// the learned duration of an absorbing state. Generation (step 6) rounds it.
+    fn expected_duration(&self, i: usize) -> f64 {
+        let aii = self.trans[i * self.l() + i];
+        if aii < 1.0 - 1e-9 { 1.0 / (1.0 - aii) } else { self.durations[i] }
     }
 
-    /// [`refine`](Self::refine) for a correction that began `t_contact` s into `demo` (thesis
-    /// Sec. 4.1.3: "the first seconds of the motion primitive, before the interaction, are left
-    /// unchanged"): the states whose Viterbi run in `demo` (under the current model) ends before
-    /// the contact keep their parameters (output, temporal terms, transitions, duration); the
-    /// others are refined. Returns how many states were kept.
+    /// The states in the order generation (step 6) visits them.
+    fn visiting_order(&self) -> Vec<usize> {
+        let l = self.l();
+        let mut order = Vec::with_capacity(l);
+        let mut i = self.prior.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).map_or(0, |(i, _)| i);
+        loop {
+            order.push(i);
+            let next = (0..l).filter(|&j| j != i).max_by(|a, b| self.trans[i * l + a].total_cmp(&self.trans[i * l + b]));
+            match next {
+                Some(j) if self.trans[i * l + j] > 0.0 && !order.contains(&j) => i = j,
+                _ => return order,
+            }
+        }
+    }
+
+    /// Incremental refinement (App. A.3.3) with a whole new demonstration: see
+    /// [`refine_after`](Self::refine_after); here no state is kept.
+    pub fn refine(&mut self, demo: &Demonstration) -> Result<()> {
+        check_dim("HMM refinement demonstration", self.dim, demo.dim)?;
+        self.refine_from(demo, 0).map(|_| ())
+    }
+
+    /// Incremental refinement (App. A.3.3) with a correction that began `t_contact` s into
+    /// `demo` (thesis Sec. 4.1.3: "the first seconds of the motion primitive, before the
+    /// interaction, are left unchanged"). Returns how many states were kept.
+    ///
+    /// The thesis blends the new demonstration (weight `η`) with the trajectory generated by the
+    /// current model (weight `1 − η`) in one weighted re-estimation. Here:
+    /// - **Alignment.** The demonstration is an execution of this model (or a motion of the same
+    ///   structure): its samples are laid on the model's state timeline by time, scaled to the
+    ///   model's length (states in generation order, each as long as its expected duration) —
+    ///   a linear time warp. Forward–backward (or Viterbi) under the current model cannot align
+    ///   a correction that leaves the states by many standard deviations: the corrected end
+    ///   never reaches the last state, the states after the contact become absorbing or
+    ///   unvisited, and the goal does not move (seen in the graph with a 17 cm correction); and
+    ///   on the part before the contact it follows the corners the smooth reproduction cuts, so
+    ///   the refined states' durations drift.
+    /// - **Kept states.** States whose samples all lie before the contact keep every parameter
+    ///   (output, temporal terms, transition row, duration), and so does the state active at
+    ///   the contact when at least half of its samples lie before it: refining it would bend the
+    ///   motion before the contact too (the generated path mixes neighbouring states).
+    /// - **Blend.** Each other state's joint (time, position) moments become the mixture of the
+    ///   demonstration samples aligned to it (weight `η`) and its current moments — which are
+    ///   what the generated trajectory has in that state — (weight `1 − η`): so its mean moves
+    ///   exactly `η` of the way to the demonstration's, whatever the two sample counts. Its
+    ///   expected duration is blended the same way and sets the self-transition (the successor
+    ///   keeps the rest; the last state stays absorbing).
     pub fn refine_after(&mut self, demo: &Demonstration, t_contact: f64) -> Result<usize> {
         check_dim("HMM refinement demonstration", self.dim, demo.dim)?;
         if !t_contact.is_finite() {
             return Err(invalid("t_contact", "must be finite"));
         }
-        let old = self.clone();
-        let q = self.viterbi(&demo.pos)?;
         let t0 = demo.t.first().copied().unwrap_or(0.0);
-        let mut last_index = vec![None; self.l()];
-        for (k, &state) in q.iter().enumerate() {
-            last_index[state] = Some(k);
+        let before = demo.t.iter().take_while(|&&t| t - t0 < t_contact).count();
+        self.refine_from(demo, before)
+    }
+
+    /// The refinement of [`refine_after`](Self::refine_after) with the first `before` samples of
+    /// `demo` before the contact.
+    fn refine_from(&mut self, demo: &Demonstration, before: usize) -> Result<usize> {
+        let n = self.dim;
+        let t_len = demo.len();
+        if t_len < 2 {
+            return Err(MotionError::TooFewSamples { what: "HMM refinement demonstration".into(), needed: 2, got: t_len });
         }
-        let kept: Vec<usize> = (0..self.l())
-            .filter(|&i| last_index[i].is_some_and(|k| demo.t[k] - t0 < t_contact))
-            .collect();
-        self.refine(demo)?;
+        check_finite("HMM refinement demonstration", &demo.pos)?;
+        let eta = self.config.forgetting;
+        // Model samples per demonstration sample.
+        let ratio = demo.duration() / (t_len - 1) as f64 / self.dt;
+        if !(ratio.is_finite() && ratio > 0.0) {
+            return Err(invalid("HMM refinement demonstration", "times must increase"));
+        }
+        // Alignment: the demonstration's time, scaled to the model's length, on the model's
+        // state timeline (expected durations in generation order).
+        let order = self.visiting_order();
+        let budget: Vec<f64> = order.iter().map(|&i| self.expected_duration(i)).collect();
+        let total: f64 = budget.iter().sum();
+        let mut q = Vec::with_capacity(t_len);
+        let (mut k, mut edge) = (0, budget[0]);
+        for j in 0..t_len {
+            let u = (j as f64 + 0.5) / t_len as f64 * total;
+            while u > edge && k + 1 < budget.len() {
+                k += 1;
+                edge += budget[k];
+            }
+            q.push(k);
+        }
+        // States before the contact are kept, and so is the one active at it when at least half
+        // of its samples lie before it (the motion before the contact stays as it was); the
+        // others are refined.
+        let first = match q.get(before) {
+            Some(&k) => {
+                let run = q.iter().filter(|&&s| s == k).count();
+                let done = q[..before].iter().filter(|&&s| s == k).count();
+                if 2 * done >= run { k + 1 } else { k }
+            }
+            None => order.len(),
+        };
+        let q: Vec<usize> = q.into_iter().map(|k| order[k]).collect();
+        // Blend of each refined state: joint moments of z = (relative time, position).
         let l = self.l();
-        for &i in &kept {
-            self.states[i] = old.states[i].clone();
-            self.trans[i * l..(i + 1) * l].copy_from_slice(&old.trans[i * l..(i + 1) * l]);
-            self.durations[i] = old.durations[i];
-            self.prior[i] = old.prior[i];
+        let m = n + 1;
+        for &i in &order[first..] {
+            let Some(start) = q.iter().position(|&s| s == i) else {
+                continue; // no demonstration sample: the state stays as it is
+            };
+            let len = q[start..].iter().take_while(|&&s| s == i).count();
+            let mut d_mean = vec![0.0; m];
+            for k in 0..len {
+                let x = demo.position(start + k);
+                d_mean[0] += (k as f64 + 0.5) / len as f64;
+                for j in 0..n {
+                    d_mean[1 + j] += x[j];
+                }
+            }
+            d_mean.iter_mut().for_each(|v| *v /= len as f64);
+            let mut d_cov = vec![0.0; m * m];
+            let mut z = vec![0.0; m];
+            for k in 0..len {
+                let x = demo.position(start + k);
+                z[0] = (k as f64 + 0.5) / len as f64 - d_mean[0];
+                for j in 0..n {
+                    z[1 + j] = x[j] - d_mean[1 + j];
+                }
+                for a in 0..m {
+                    for b in 0..m {
+                        d_cov[a * m + b] += z[a] * z[b] / len as f64;
+                    }
+                }
+            }
+            let st = &self.states[i];
+            let mut o_mean = vec![st.t_mean];
+            o_mean.extend_from_slice(&st.mean);
+            let mut o_cov = vec![0.0; m * m];
+            o_cov[0] = st.t_var;
+            for a in 0..n {
+                o_cov[1 + a] = st.ts_cov[a];
+                o_cov[(1 + a) * m] = st.ts_cov[a];
+                for b in 0..n {
+                    o_cov[(1 + a) * m + 1 + b] = st.cov[a * n + b];
+                }
+            }
+            let mean: Vec<f64> = (0..m).map(|a| eta * d_mean[a] + (1.0 - eta) * o_mean[a]).collect();
+            let mut cov = vec![0.0; m * m];
+            for a in 0..m {
+                for b in 0..m {
+                    cov[a * m + b] = eta * (d_cov[a * m + b] + (d_mean[a] - mean[a]) * (d_mean[b] - mean[b]))
+                        + (1.0 - eta) * (o_cov[a * m + b] + (o_mean[a] - mean[a]) * (o_mean[b] - mean[b]));
+                }
+            }
+            let duration = (eta * len as f64 * ratio + (1.0 - eta) * self.expected_duration(i)).max(1.0);
+            let st = &mut self.states[i];
+            st.t_mean = mean[0];
+            st.t_var = cov[0].max(1e-6);
+            st.mean.copy_from_slice(&mean[1..]);
+            for a in 0..n {
+                st.ts_cov[a] = cov[1 + a];
+                for b in 0..n {
+                    st.cov[a * n + b] = cov[(1 + a) * m + 1 + b];
+                }
+                st.cov[a * n + a] += self.config.reg_covar;
+            }
+            self.durations[i] = duration;
+            let row = &mut self.trans[i * l..(i + 1) * l];
+            let leave: f64 = row.iter().enumerate().filter(|&(j, _)| j != i).map(|(_, p)| p).sum();
+            if leave > 0.0 {
+                let stay = 1.0 - 1.0 / duration;
+                for (j, p) in row.iter_mut().enumerate() {
+                    *p = if j == i { stay } else { *p / leave * (1.0 - stay) };
+                }
+            }
         }
-        let ps: f64 = self.prior.iter().sum();
-        if ps > 0.0 {
-            self.prior.iter_mut().for_each(|p| *p /= ps);
-        }
-        Ok(kept.len())
+        Ok(first)
     }
 }
 
@@ -736,6 +865,55 @@ mod tests {
         }
         assert!((kept..6).any(|i| hmm.states[i].mean != old.states[i].mean), "the states after it follow the correction");
         assert!(hmm.refine_after(&bent, f64::NAN).is_err());
+    }
+
+    /// A correction far outside the states' spread (the graph's 17 cm push to g′): each
+    /// refinement moves the generated end `η` of the way to the corrected end, the motion keeps
+    /// its duration and no state but the last becomes absorbing.
+    #[test]
+    fn a_far_correction_moves_the_goal_by_the_forgetting_factor_each_round() {
+        let eta = 0.6;
+        let cfg = HmmConfig { states: 7, forgetting: eta, ..Default::default() };
+        let base = demo(1.0);
+        let mut hmm = HmmPrimitive::fit(&[base.clone(), demo(1.02), demo(0.98)], &cfg).expect("fit");
+        let shift = [0.8, -0.5];
+        let pos: Vec<f64> = base
+            .t
+            .iter()
+            .zip(base.pos.chunks(2))
+            .flat_map(|(t, p)| {
+                let s = ((t - 0.6) / 0.8).clamp(0.0, 1.0);
+                let m = s * s * (3.0 - 2.0 * s);
+                [p[0] + shift[0] * m, p[1] + shift[1] * m]
+            })
+            .collect();
+        let bent = Demonstration::new(2, base.t.clone(), pos, None).expect("demo");
+        let new_end = bent.position(bent.len() - 1).to_vec();
+        let end = |h: &HmmPrimitive| {
+            let tr = h.generate(None, 0.01).expect("gen");
+            (tr.position(tr.len() - 1).to_vec(), tr.t[tr.len() - 1])
+        };
+        let dist = |a: &[f64], b: &[f64]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let (end0, duration0) = end(&hmm);
+        let mut previous = dist(&end0, &new_end);
+        assert!(previous > 0.5, "{previous}");
+        for round in 1..=3 {
+            let kept = hmm.refine_after(&bent, 0.6).expect("refine");
+            assert!((1..7).contains(&kept), "round {round}: {kept} kept");
+            let (e, duration) = end(&hmm);
+            let d = dist(&e, &new_end);
+            eprintln!("round {round}: {kept} kept, generated end {previous:.3} -> {d:.3} from the corrected end, {duration:.2} s");
+            // At least η of the remaining distance (less 0.1 for the GMR smear of the last states).
+            assert!(d < (1.1 - eta) * previous + 0.02, "round {round}: {previous} -> {d}");
+            assert!((duration - duration0).abs() < 0.1 * duration0, "round {round}: {duration0} s -> {duration} s");
+            let l = hmm.states.len();
+            for i in 0..l - 1 {
+                assert!(hmm.trans[i * l + i] < 0.99, "round {round}: state {i} stays {}", hmm.trans[i * l + i]);
+            }
+            hmm.validate().expect("valid");
+            previous = d;
+        }
+        assert!(previous < 0.1, "{previous}");
     }
 
     #[test]
