@@ -15,7 +15,8 @@ use cowork_sim::{GripperState, Simulator};
 /// Subcommands of `cowork primitives`.
 #[derive(Debug, clap::Subcommand)]
 pub enum PrimitivesCommand {
-    /// One line per primitive: key, label, kind, object, samples, duration, source.
+    /// One line per primitive: key, label, kind, object, samples, duration, source; then the
+    /// HMM primitives (key, label, version, states, generated duration, last refinement).
     List(DbArgs),
     /// Everything about one primitive (`--json`: as stored).
     Show {
@@ -137,7 +138,14 @@ fn kind_name(p: &Primitive) -> String {
 
 fn list(a: &DbArgs) -> Result<()> {
     let (db, path) = load(a)?;
-    println!("{} — robot {}, {} primitives, next label number {}", path.display(), db.robot, db.primitives.len(), db.next_index);
+    println!(
+        "{} — robot {}, {} primitives, {} HMM primitives, next label number {}",
+        path.display(),
+        db.robot,
+        db.primitives.len(),
+        db.hmm.len(),
+        db.next_index
+    );
     println!("{:<10} {:<16} {:<13} {:<7} {:>7} {:>8}  source", "key", "label", "kind", "object", "samples", "time_s");
     let mut all: Vec<&Primitive> = db.primitives.values().collect();
     let number = |p: &Primitive| p.id.trim_start_matches(|c: char| c.is_ascii_alphabetic()).parse::<u32>().unwrap_or(u32::MAX);
@@ -156,13 +164,60 @@ fn list(a: &DbArgs) -> Result<()> {
             p.source.end_s
         );
     }
+    for (id, e) in &db.hmm {
+        let refined = e.history.last().map_or("learned".to_owned(), |r| format!("refined from {}", r.demonstration));
+        println!(
+            "{:<10} {:<16} {:<13} {:<7} {:>7} {:>8.2}  {refined}",
+            id,
+            e.label,
+            format!("HMM v{} {}st", e.version, e.model.states.len()),
+            "-",
+            "-",
+            hmm_duration_s(&e.model),
+        );
+    }
+    Ok(())
+}
+
+/// Length of the HMM's generated path (s), NaN when it cannot be generated.
+fn hmm_duration_s(m: &cowork_motion::hmm::HmmPrimitive) -> f64 {
+    m.generate(None, m.dt).map_or(f64::NAN, |t| t.t.last().copied().unwrap_or(0.0))
+}
+
+fn show_hmm(e: &cowork_manager::HmmEntry, json: bool) -> Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(e)?);
+        return Ok(());
+    }
+    println!("{} ({}) — HMM, version {}", e.id, e.label, e.version);
+    println!(
+        "  {} states, {}-D, η = {}, generated path {:.2} s, created {} (Unix s)",
+        e.model.states.len(),
+        e.model.dim,
+        e.model.config.forgetting,
+        hmm_duration_s(&e.model),
+        e.created_unix_s
+    );
+    for (i, st) in e.model.states.iter().enumerate() {
+        println!("  state {i}: mean {:.3?} m, {:.0} samples", st.mean, e.model.durations[i]);
+    }
+    for r in &e.history {
+        println!(
+            "  v{}: {} — contact at {:.2} s, {} samples, states kept {:?}, changed {:?} (Unix s {})",
+            r.version, r.demonstration, r.t_contact_s, r.samples, r.kept_states, r.changed_states, r.unix_s
+        );
+    }
     Ok(())
 }
 
 fn show(a: &DbArgs, id: &str, json: bool) -> Result<()> {
     let (db, path) = load(a)?;
+    if let Some(e) = db.hmm(id) {
+        return show_hmm(e, json);
+    }
     let p = db.get(id).with_context(|| {
-        format!("no primitive `{id}` in {} (keys: {})", path.display(), db.primitives.keys().cloned().collect::<Vec<_>>().join(", "))
+        let keys: Vec<&str> = db.primitives.keys().chain(db.hmm.keys()).map(String::as_str).collect();
+        format!("no primitive `{id}` in {} (keys: {})", path.display(), keys.join(", "))
     })?;
     if json {
         println!("{}", serde_json::to_string_pretty(p)?);
@@ -202,10 +257,12 @@ fn show(a: &DbArgs, id: &str, json: bool) -> Result<()> {
 fn rm(a: &DbArgs, ids: &[String]) -> Result<()> {
     let (mut db, path) = load(a)?;
     for id in ids {
-        db.remove(id).with_context(|| format!("{}", path.display()))?;
+        if db.hmm.remove(id).is_none() {
+            db.remove(id).with_context(|| format!("{}", path.display()))?;
+        }
     }
     db.save(&path)?;
-    println!("removed {} from {} ({} left)", ids.join(", "), path.display(), db.primitives.len());
+    println!("removed {} from {} ({} left)", ids.join(", "), path.display(), db.primitives.len() + db.hmm.len());
     Ok(())
 }
 

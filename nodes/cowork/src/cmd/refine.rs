@@ -314,13 +314,11 @@ fn print_trial(t: &RefineTrial) {
             e.kept_states.as_ref().zip(e.changed_states.as_ref()).map_or("-".into(), |(k, c)| format!("{k:?} / {c:?}"))
         );
     }
-    println!(
-        "  reached g' (within {:.1} mm) on its own after {} refined execution(s) (thesis: {THESIS_EXECUTIONS}); {:.1} s simulated, {:.0} s wall",
-        t.threshold_mm,
-        t.executions_to_reach.map_or("no".into(), |n| n.to_string()),
-        t.duration_s,
-        t.wall_s
-    );
+    let reached = match t.executions_to_reach {
+        Some(n) => format!("reached g' (within {:.1} mm) on its own after {n} refined execution(s)", t.threshold_mm),
+        None => format!("did not reach g' (within {:.1} mm) on its own", t.threshold_mm),
+    };
+    println!("  {reached} (thesis: {THESIS_EXECUTIONS}); {:.1} s simulated, {:.0} s wall", t.duration_s, t.wall_s);
 }
 
 /// lwr_sim's parameter file with the depth camera off (nothing here looks at it), written
