@@ -26,6 +26,12 @@ struct Run {
     contact_speed_end: f64,
     ee_speed_end: f64,
     weights_end: [f64; 3],
+    /// Largest weight of T³ = [T_ic, T_ee] over the run.
+    w3_max: f64,
+    /// When T³'s weight first passed ½ (s), if it did.
+    takeover_s: Option<f64>,
+    /// The end effector's position error accumulated over the run: ‖∫ (ẋ − ẋ_desired) dt‖ (m).
+    ee_drift: f64,
     max_qdot_jump: f64,
     bound_violation: f64,
 }
@@ -58,9 +64,13 @@ fn run_with(
         contact_speed_end: 0.0,
         ee_speed_end: 0.0,
         weights_end: [0.0; 3],
+        w3_max: 0.0,
+        takeover_s: None,
+        ee_drift: 0.0,
         max_qdot_jump: 0.0,
         bound_violation: 0.0,
     };
+    let mut drift = Vector3::zeros();
     for k in 0..steps {
         model.forward_kinematics(&q, &mut poses);
         let contact = link.map(|l| Contact { link: l, point: contact_point_at_link_end(model, &poses, l), force: force(k) });
@@ -74,6 +84,12 @@ fn run_with(
         }
         prev = Some(qdot);
         r.ee_error_max = r.ee_error_max.max((report.end_effector_twist.fixed_rows::<3>(0) - ee_v).norm());
+        drift += (report.end_effector_twist.fixed_rows::<3>(0) - ee_v) * DT;
+        r.ee_drift = drift.norm();
+        r.w3_max = r.w3_max.max(w[2]);
+        if w[2] > 0.5 && r.takeover_s.is_none() {
+            r.takeover_s = Some(k as f64 * DT);
+        }
         r.contact_error_end = (report.contact_velocity - report.contact_velocity_desired).norm();
         r.contact_speed_end = report.contact_velocity.norm();
         r.ee_speed_end = report.end_effector_twist.fixed_rows::<3>(0).norm();
@@ -144,6 +160,44 @@ fn crossing_the_thresholds_never_makes_the_joint_velocity_jump() {
         switched.max_qdot_jump
     );
     assert!(r.max_qdot_jump < 5e-3, "largest one-step change {} rad/s", r.max_qdot_jump);
+}
+
+/// Fig. 4.7's three settings of f_s (f_i = 5 N) in numbers: a push on the elbow ramped to 20 N
+/// over 1 s and held, against a primitive moving the tool at 0.05 m/s. With f_s = 30 N the
+/// guidance never takes priority (T_ic stays in T_ee's null space: the tool is not disturbed);
+/// with 15 N it takes over once the push passes 15 N, with 5 N as soon as the push is felt;
+/// once it has, the end effector's error accumulates where the two tasks conflict.
+#[test]
+fn the_switch_force_decides_when_the_guidance_takes_over_fig_4_7() {
+    let model = common::lwr();
+    let l = elbow(&model);
+    let ee_v = Vector3::new(0.05, 0.0, 0.0);
+    let force = |k: usize| Vector3::new(0.0, 20.0 * (k as f64 * DT).min(1.0), 0.0);
+    let runs: Vec<(f64, Run)> = [5.0, 15.0, 30.0]
+        .into_iter()
+        .map(|fs| (fs, run_with(TtcConfig { switch_force: fs, ..TtcConfig::default() }, &model, Some(l), ee_v, force, 2000)))
+        .collect();
+    for (fs, r) in &runs {
+        eprintln!(
+            "f_s = {fs:>4} N: largest w(T³) {:.3}, T³ over ½ from {:?} s, weights at the end {:.3?}, \
+             end-effector drift {:.1} mm, largest one-step joint-velocity change {:.4} rad/s",
+            r.w3_max,
+            r.takeover_s,
+            r.weights_end,
+            r.ee_drift * 1e3,
+            r.max_qdot_jump
+        );
+        assert!(r.bound_violation < 1e-9, "f_s = {fs}: ‖q̇‖ above max ‖q̇ⁱ‖ by {}", r.bound_violation);
+    }
+    let (d5, d15, d30) = (&runs[0].1, &runs[1].1, &runs[2].1);
+    assert_eq!(d30.w3_max, 0.0, "f_s = 30 N never hands T_ee over");
+    assert!(d30.ee_drift < 1e-3, "f_s = 30 N: the tool keeps its path ({} m)", d30.ee_drift);
+    assert!(d5.weights_end[2] > 0.999 && d15.weights_end[2] > 0.999, "{:?} {:?}", d5.weights_end, d15.weights_end);
+    let (t5, t15) = (d5.takeover_s.expect("f_s = 5 N takes over"), d15.takeover_s.expect("f_s = 15 N takes over"));
+    assert!(t5 + 0.3 < t15, "5 N takes over well before 15 N: {t5} s vs {t15} s");
+    for d in [d5, d15] {
+        assert!(d.ee_drift > 0.01 && d.ee_drift > 10.0 * d30.ee_drift, "drift {} m vs {} m with f_s = 30 N", d.ee_drift, d30.ee_drift);
+    }
 }
 
 #[test]
