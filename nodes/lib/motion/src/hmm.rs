@@ -546,7 +546,10 @@ impl HmmPrimitive {
         }
         // Q ends in its last state: so do the responsibilities (a free end smears the last states'
         // outputs into the end point).
-        let (_, gamma, _) = self.forward_backward(&logb, t_len, q.last().copied());
+        let (ll, gamma, _) = self.forward_backward(&logb, t_len, q.last().copied());
+        if !ll.is_finite() {
+            return Err(invalid("prior / trans", "no state sequence of the generated length ends in its last state"));
+        }
         // Step 9–10. Each state's time variable is extended linearly beyond its own run in Q
         // (`(t − start_k + ½)/d_k`), so that `ˢo_k(t)` is continuous in t; with the literal
         // per-run `ᵗo(t)`, which jumps from ≈1 to ≈0 at every state change, the mixture A.30 jumps
@@ -914,6 +917,14 @@ mod tests {
             previous = d;
         }
         assert!(previous < 0.1, "{previous}");
+    }
+
+    #[test]
+    fn a_model_no_state_sequence_can_run_is_refused_not_generated_as_zeros() {
+        let mut hmm = HmmPrimitive::fit(&[demo(1.0)], &HmmConfig { states: 4, ..Default::default() }).expect("fit");
+        hmm.prior = vec![0.0; 4];
+        hmm.validate().expect("finite, so it passes the structural check");
+        assert!(hmm.generate(None, 0.01).is_err());
     }
 
     #[test]
