@@ -724,41 +724,8 @@ impl HmmPrimitive {
                 continue; // no demonstration sample: the state stays as it is
             };
             let len = q[start..].iter().take_while(|&&s| s == i).count();
-            let mut d_mean = vec![0.0; m];
-            for k in 0..len {
-                let x = demo.position(start + k);
-                d_mean[0] += (k as f64 + 0.5) / len as f64;
-                for j in 0..n {
-                    d_mean[1 + j] += x[j];
-                }
-            }
-            d_mean.iter_mut().for_each(|v| *v /= len as f64);
-            let mut d_cov = vec![0.0; m * m];
-            let mut z = vec![0.0; m];
-            for k in 0..len {
-                let x = demo.position(start + k);
-                z[0] = (k as f64 + 0.5) / len as f64 - d_mean[0];
-                for j in 0..n {
-                    z[1 + j] = x[j] - d_mean[1 + j];
-                }
-                for a in 0..m {
-                    for b in 0..m {
-                        d_cov[a * m + b] += z[a] * z[b] / len as f64;
-                    }
-                }
-            }
-            let st = &self.states[i];
-            let mut o_mean = vec![st.t_mean];
-            o_mean.extend_from_slice(&st.mean);
-            let mut o_cov = vec![0.0; m * m];
-            o_cov[0] = st.t_var;
-            for a in 0..n {
-                o_cov[1 + a] = st.ts_cov[a];
-                o_cov[(1 + a) * m] = st.ts_cov[a];
-                for b in 0..n {
-                    o_cov[(1 + a) * m + 1 + b] = st.cov[a * n + b];
-                }
-            }
+            let (d_mean, d_cov) = run_moments(demo, start, len);
+            let (o_mean, o_cov) = state_moments(&self.states[i]);
             let mean: Vec<f64> = (0..m).map(|a| eta * d_mean[a] + (1.0 - eta) * o_mean[a]).collect();
             let mut cov = vec![0.0; m * m];
             for a in 0..m {
@@ -791,6 +758,51 @@ impl HmmPrimitive {
         }
         Ok(first)
     }
+}
+
+/// Mean and covariance (population) of z = (relative time, position) over samples
+/// `start..start + len` of `demo`, one run of a state: relative time `(k + ½)/len`.
+fn run_moments(demo: &Demonstration, start: usize, len: usize) -> (Vec<f64>, Vec<f64>) {
+    let n = demo.dim;
+    let m = n + 1;
+    let z_at = |k: usize, z: &mut [f64]| {
+        z[0] = (k as f64 + 0.5) / len as f64;
+        z[1..].copy_from_slice(demo.position(start + k));
+    };
+    let mut z = vec![0.0; m];
+    let mut mean = vec![0.0; m];
+    for k in 0..len {
+        z_at(k, &mut z);
+        mean.iter_mut().zip(&z).for_each(|(a, v)| *a += v / len as f64);
+    }
+    let mut cov = vec![0.0; m * m];
+    for k in 0..len {
+        z_at(k, &mut z);
+        for a in 0..m {
+            for b in 0..m {
+                cov[a * m + b] += (z[a] - mean[a]) * (z[b] - mean[b]) / len as f64;
+            }
+        }
+    }
+    (mean, cov)
+}
+
+/// A state's parameters as the mean and covariance of z = (relative time, position).
+fn state_moments(st: &HmmState) -> (Vec<f64>, Vec<f64>) {
+    let n = st.mean.len();
+    let m = n + 1;
+    let mut mean = vec![st.t_mean];
+    mean.extend_from_slice(&st.mean);
+    let mut cov = vec![0.0; m * m];
+    cov[0] = st.t_var;
+    for a in 0..n {
+        cov[1 + a] = st.ts_cov[a];
+        cov[(1 + a) * m] = st.ts_cov[a];
+        for b in 0..n {
+            cov[(1 + a) * m + 1 + b] = st.cov[a * n + b];
+        }
+    }
+    (mean, cov)
 }
 
 #[cfg(test)]
