@@ -30,8 +30,22 @@ pub enum Learned {
     Cgmr(CgmrField),
     /// DMP driven by the measured position (see [`DmpField`]).
     Dmp(DmpField),
-    /// The path an HMM generated, translated to the start and tracked with position feedback.
-    Hmm(PathTracker),
+    /// The path an HMM generated, translated to the start and tracked with position feedback,
+    /// with its null-space (elbow) path if the command carried one.
+    Hmm(HmmField),
+}
+
+/// An HMM end-effector path and, optionally, an HMM null-space path (thesis Sec. 4.1.1, Fig.
+/// 4.1): the origin of `link` follows the second path on the first one's clock, translated to
+/// where that origin is at the first step, in the end-effector task's null space.
+#[derive(Debug)]
+pub struct HmmField {
+    /// The end-effector (tool) path.
+    pub end_effector: PathTracker,
+    /// The null-space path: the link (model index) and its path.
+    pub null_space: Option<(usize, PathTracker)>,
+    /// The null-space path was translated to the link's first position of this motion.
+    started: bool,
 }
 
 /// Sampling of an HMM's generated path (s).
@@ -139,29 +153,61 @@ impl ModelFiles {
     }
 }
 
+/// A model given inline or as `{"model_file": NAME}` (read only as `files` allows), of kind
+/// `kind` and 3-D; `what` names it in errors.
+fn model_of(value: serde_json::Value, kind: &str, files: &ModelFiles, what: &str) -> Result<Model, String> {
+    let model = if let Some(name) = value.get("model_file") {
+        let name = name.as_str().ok_or_else(|| format!("{what}: model_file must be a string"))?;
+        let text = files.read(name)?;
+        serde_json::from_str::<Model>(&text).map_err(|e| format!("model_file {name:?} is not a valid model: {e}"))?
+    } else {
+        serde_json::from_value::<Model>(value).map_err(|e| format!("{what} is not a {kind} model: {e}"))?
+    };
+    if model.kind() != kind {
+        return Err(format!("{what}: command kind {kind} but the model is a {} model", model.kind()));
+    }
+    if model.dim() != 3 {
+        return Err(format!("{what}: the {kind} model is {}-D; the controller needs a 3-D (position) model", model.dim()));
+    }
+    Ok(model)
+}
+
 /// Decodes `parameters_json` for a command of kind `kind` ("dmp", "gmr", "cgmr" or "hmm"); a
 /// `model_file` is read only as `files` allows.
-pub fn decode(kind: &str, parameters_json: &str, files: &ModelFiles) -> Result<Learned, String> {
+///
+/// An HMM command may carry a null-space (elbow) primitive beside its model:
+/// `{"null_space": {"link": NAME, "model": HMM or {"model_file": NAME}}, ...the model...}`,
+/// `NAME` one of `links` (the robot model's link names, base first); its origin then follows
+/// that HMM's path in the null space of the end-effector task (Sec. 4.1.1).
+pub fn decode(kind: &str, parameters_json: &str, files: &ModelFiles, links: &[String]) -> Result<Learned, String> {
     if parameters_json.trim().is_empty() {
         return Err(format!(
             "{kind} command without a model: parameters_json must hold a cowork_motion model or {{\"model_file\": PATH}}"
         ));
     }
-    let value: serde_json::Value =
+    let mut value: serde_json::Value =
         serde_json::from_str(parameters_json).map_err(|e| format!("parameters_json is not JSON: {e}"))?;
-    let model = if let Some(name) = value.get("model_file") {
-        let name = name.as_str().ok_or("parameters_json: model_file must be a string")?;
-        let text = files.read(name)?;
-        serde_json::from_str::<Model>(&text).map_err(|e| format!("model_file {name:?} is not a valid model: {e}"))?
-    } else {
-        serde_json::from_value::<Model>(value).map_err(|e| format!("parameters_json is not a {kind} model: {e}"))?
+    let null_space = value.as_object_mut().and_then(|o| o.remove("null_space"));
+    let model = model_of(value, kind, files, "parameters_json")?;
+    let null_space = match null_space {
+        None => None,
+        Some(_) if kind != "hmm" => {
+            return Err(format!("null_space: a null-space primitive runs on an HMM's clock; a {kind} command cannot carry one"));
+        }
+        Some(ns) => {
+            let link = ns.get("link").and_then(|l| l.as_str()).ok_or("null_space.link must be a link name")?;
+            // The base does not move: a primitive for it would ask for nothing possible.
+            let index = links
+                .iter()
+                .skip(1)
+                .position(|n| n == link)
+                .map(|i| i + 1)
+                .ok_or_else(|| format!("null_space.link {link:?} is not a moving link of the robot model ({})", links.join(", ")))?;
+            let m = ns.get("model").cloned().ok_or("null_space.model is missing")?;
+            let Model::Hmm(m) = model_of(m, "hmm", files, "null_space.model")? else { unreachable!("kind checked") };
+            Some((index, hmm_path(&m).map_err(|e| format!("null_space.model: {e}"))?))
+        }
     };
-    if model.kind() != kind {
-        return Err(format!("command kind {kind} but the model is a {} model", model.kind()));
-    }
-    if model.dim() != 3 {
-        return Err(format!("the {kind} model is {}-D; the controller needs a 3-D (TCP position) model", model.dim()));
-    }
     Ok(match model {
         Model::Gmr(m) => Learned::Gmr(m),
         Model::Cgmr(m) => Learned::Cgmr(CgmrField { model: m, omega: 0.0, t: 0.0, started: false }),
@@ -171,7 +217,7 @@ pub fn decode(kind: &str, parameters_json: &str, files: &ModelFiles) -> Result<L
             }
             Learned::Dmp(DmpField { model: m, x0: Vector3::zeros(), v: Vector3::zeros(), s: 1.0 })
         }
-        Model::Hmm(m) => Learned::Hmm(hmm_path(&m)?),
+        Model::Hmm(m) => Learned::Hmm(HmmField { end_effector: hmm_path(&m)?, null_space, started: false }),
     })
 }
 
@@ -183,7 +229,10 @@ impl LearnedField for Learned {
     fn reset(&mut self, x0: &Vector3<f64>, goal: &Vector3<f64>) {
         match self {
             Learned::Gmr(_) => {}
-            Learned::Hmm(p) => p.reset(x0, goal),
+            Learned::Hmm(h) => {
+                h.end_effector.reset(x0, goal);
+                h.started = false;
+            }
             Learned::Cgmr(c) => {
                 c.omega = 0.0;
                 c.t = 0.0;
@@ -200,7 +249,7 @@ impl LearnedField for Learned {
     fn velocity(&mut self, x: &Vector3<f64>, goal: &Vector3<f64>, dt: f64) -> Vector3<f64> {
         let mut out = [0.0; 3];
         match self {
-            Learned::Hmm(p) => return p.velocity(x, goal, dt),
+            Learned::Hmm(h) => return h.end_effector.velocity(x, goal, dt),
             Learned::Gmr(m) => {
                 if m.velocity_towards(x.as_slice(), goal.as_slice(), &mut out).is_err() {
                     return nan3();
@@ -240,5 +289,23 @@ impl LearnedField for Learned {
             }
         }
         Vector3::from(out)
+    }
+
+    fn null_space_link(&self) -> Option<usize> {
+        match self {
+            Learned::Hmm(HmmField { null_space: Some((link, _)), .. }) => Some(*link),
+            _ => None,
+        }
+    }
+
+    fn null_space_velocity(&mut self, x: &Vector3<f64>) -> Vector3<f64> {
+        let Learned::Hmm(h) = self else { return Vector3::zeros() };
+        let tau = h.end_effector.tau();
+        let Some((_, path)) = &mut h.null_space else { return Vector3::zeros() };
+        if !h.started {
+            h.started = true;
+            path.reset(x, x);
+        }
+        path.velocity_at(tau, x)
     }
 }

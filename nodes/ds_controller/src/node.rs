@@ -246,7 +246,7 @@ impl Adapter {
                     MotionCommandMsg::KIND_HMM => "hmm",
                     _ => "cgmr",
                 };
-                match learned::decode(kind, &msg.parameters_json, &self.model_files) {
+                match learned::decode(kind, &msg.parameters_json, &self.model_files, self.model.link_names()) {
                     Ok(m) => model = Some(m),
                     Err(e) => return bad(format!("primitive kind {k} ({kind}): {e}")),
                 }

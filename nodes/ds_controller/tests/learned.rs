@@ -336,3 +336,95 @@ fn bad_hmm_models_are_refused_before_they_run() {
     let r = adapter.command(&command(10, MotionCommandMsg::KIND_GMR, x0, json)).expect_err("refused");
     assert!(r.reason.contains("hmm model"), "{}", r.reason);
 }
+
+/// Runs `msg` in the kinematic loop for `seconds`; the tool's and `link`'s origin positions
+/// every 10 ms (m, base frame).
+fn run_paths(model: &RobotModel, msg: &MotionCommandMsg, link: usize, seconds: f64) -> (Vec<Vector3<f64>>, Vec<Vector3<f64>>) {
+    let adapter = Adapter::new(model, &Params::default());
+    let (cmd, learned) = adapter.command(msg).expect("command accepted");
+    let mut field = learned.expect("a decoded model");
+    let mut ctl = DsController::new(model.clone(), Params::default().controller).expect("controller");
+    let mut out = ControlOutput::default();
+    let mut q = q_start();
+    let dt = ctl.config().period_s;
+    let (mut tool, mut elbow) = (Vec::new(), Vec::new());
+    for k in 0..(seconds / dt).round() as usize {
+        if k % 10 == 0 {
+            tool.push(model.link_pose(&q, model.tip_link()).translation.vector);
+            elbow.push(model.link_pose(&q, link).translation.vector);
+        }
+        let t = k as f64 * dt;
+        let input = ControlInput {
+            time: t,
+            q,
+            command: cmd,
+            distances: Distances::clear(t),
+            human: HumanInput { stamp: t, state: HumanState::default() },
+        };
+        ctl.step_with_field(&input, Some(&mut field as &mut dyn LearnedField), &mut out).expect("valid step");
+        q += out.qdot * dt;
+    }
+    (tool, elbow)
+}
+
+/// A null-space (elbow) HMM primitive beside the end-effector HMM (Sec. 4.1.1, Fig. 4.1):
+/// taught an elbow path moved sideways by up to 5 cm mid-way (the swivel direction here: the
+/// arm starts in the x–z plane), the elbow moves while the tool's path stays where the
+/// end-effector primitive alone puts it.
+#[test]
+fn an_hmm_null_space_primitive_moves_the_elbow_and_leaves_the_tool_alone() {
+    let model = lwr();
+    let elbow_link = model.link_names().iter().position(|n| n == "lwr_link_4").expect("elbow link");
+    let hmm = Model::fit(ModelKind::Hmm, &demos(), &FitOptions::default()).expect("fit");
+    let json = serde_json::to_string(&hmm).expect("json");
+    let Model::Hmm(h) = &hmm else { unreachable!("an HMM was fitted") };
+    let duration = h.generate(None, 0.01).expect("generate").t.last().copied().expect("samples");
+    let x0 = model.link_pose(&q_start(), model.tip_link()).translation.vector;
+    let msg = command(11, MotionCommandMsg::KIND_HMM, x0, json.clone());
+    let (tool0, elbow0) = run_paths(&model, &msg, elbow_link, duration + 1.0);
+    // Elbow demonstrations: the elbow's own path, moved by a bump of 4, 5 and 6 cm along y mid-way.
+    let n = elbow0.len().min((duration / 0.01) as usize + 1);
+    let raised = |height: f64| {
+        let t: Vec<f64> = (0..n).map(|k| k as f64 * 0.01).collect();
+        let pos = (0..n)
+            .flat_map(|k| {
+                let s = (std::f64::consts::PI * k as f64 / (n - 1) as f64).sin().powi(2);
+                let p = elbow0[k] + Vector3::y() * (height * s);
+                [p.x, p.y, p.z]
+            })
+            .collect();
+        Demonstration::new(3, t, pos, None).expect("elbow demo")
+    };
+    let elbow_demos: Vec<_> = [0.04, 0.05, 0.06].iter().map(|&h| raised(h)).collect();
+    let elbow_hmm = Model::fit(ModelKind::Hmm, &elbow_demos, &FitOptions::default()).expect("elbow fit");
+    let mut v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    v["null_space"] = serde_json::json!({"link": "lwr_link_4", "model": elbow_hmm});
+    let msg = command(12, MotionCommandMsg::KIND_HMM, x0, v.to_string());
+    let (tool1, elbow1) = run_paths(&model, &msg, elbow_link, duration + 1.0);
+    let tool_moved = tool0.iter().zip(&tool1).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    let mid = n / 2;
+    let rise = elbow1[mid].y - elbow0[mid].y;
+    let elbow_moved = elbow0.iter().zip(&elbow1).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    eprintln!("null-space elbow primitive: elbow {:.1} mm along y mid-way (moved up to {:.1} mm), tool moved {:.2} mm", rise * 1e3, elbow_moved * 1e3, tool_moved * 1e3);
+    assert!(rise > 0.03, "the elbow moved only {rise} m along y");
+    assert!(tool_moved < 0.002, "the tool's path moved by {tool_moved} m");
+
+    // Refused: a link that does not exist, the fixed base, a non-HMM elbow model, a DMP with one.
+    let adapter = Adapter::new(&model, &Params::default());
+    let with = |ns: serde_json::Value, kind: u8, base: &str| {
+        let mut v: serde_json::Value = serde_json::from_str(base).expect("json");
+        v["null_space"] = ns;
+        adapter.command(&command(13, kind, x0, v.to_string())).expect_err("refused").reason
+    };
+    let r = with(serde_json::json!({"link": "lwr_link_9", "model": elbow_hmm}), MotionCommandMsg::KIND_HMM, &json);
+    assert!(r.contains("lwr_link_9") && r.contains("lwr_link_4"), "{r}");
+    let r = with(serde_json::json!({"link": "lwr_base_link", "model": elbow_hmm}), MotionCommandMsg::KIND_HMM, &json);
+    assert!(r.contains("not a moving link"), "{r}");
+    let r = with(serde_json::json!({"link": "lwr_link_4", "model": fit(ModelKind::Gmr)}), MotionCommandMsg::KIND_HMM, &json);
+    assert!(r.contains("null_space.model") && r.contains("gmr"), "{r}");
+    let r = with(serde_json::json!({"link": "lwr_link_4"}), MotionCommandMsg::KIND_HMM, &json);
+    assert!(r.contains("null_space.model"), "{r}");
+    let dmp = serde_json::to_string(&fit(ModelKind::Dmp)).expect("json");
+    let r = with(serde_json::json!({"link": "lwr_link_4", "model": elbow_hmm}), MotionCommandMsg::KIND_DMP, &dmp);
+    assert!(r.contains("HMM's clock"), "{r}");
+}

@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Fault, Result, Stream};
 use crate::goal::{Reach, adapted_velocity};
-use crate::ik::{Ik, IkConfig, IkReport, LinkTask, Saturation, Twist, limit_avoidance, orientation_error, saturate};
+use crate::ik::{Ik, IkConfig, IkReport, LinkTask, PointTask, Saturation, Twist, limit_avoidance, orientation_error, saturate};
 use crate::modulation::{
     EPSILON, Escape, EscapeConfig, influence_weight, modulate, orthonormal_basis,
     weighted_eigenvalues, weighted_modulation_matrix_in_basis,
@@ -841,6 +841,8 @@ impl DsController {
         d.age_scale = age_scale;
         let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp * age_scale;
         d.alpha = alpha;
+        // A learned primitive's null-space (elbow) path, if it has one (Sec. 4.1.1).
+        let mut null_space = None;
         let nominal = match (&cmd.primitive, field) {
             (Primitive::Learned, Some(field)) => {
                 if self.field_command != Some(cmd.id) {
@@ -852,6 +854,16 @@ impl DsController {
                     let fault = Fault::NonFinite { what: "learned primitive velocity", link: usize::MAX };
                     self.brake(&input.q, out, HoldReason::Fault(fault));
                     return Err(fault);
+                }
+                if let Some(link) = field.null_space_link().filter(|&l| l < self.model.link_count()) {
+                    let v_link = field.null_space_velocity(&self.poses.get(link).translation.vector);
+                    if !v_link.iter().all(|c| c.is_finite()) {
+                        let fault = Fault::NonFinite { what: "learned null-space primitive velocity", link: usize::MAX };
+                        self.brake(&input.q, out, HoldReason::Fault(fault));
+                        return Err(fault);
+                    }
+                    // The same speed rule as the end effector's own task.
+                    null_space = Some(PointTask { link, velocity: limit_speed(v_link, self.cfg.scaling.far_speed) * alpha });
                 }
                 v
             }
@@ -941,13 +953,15 @@ impl DsController {
         if pull > self.cfg.ik.posture_max_speed {
             posture *= self.cfg.ik.posture_max_speed / pull;
         }
-        let mut qdot = self.ik.solve_with_posture(
+        // A null-space primitive takes the lowest priority instead of the posture task.
+        let mut qdot = self.ik.solve_with_null_space(
             &self.model,
             &self.poses,
             self.tip,
             &twist,
             task.as_ref(),
             &posture,
+            null_space.as_ref(),
             Some((&input.q, dt)),
             &mut d.ik,
         );

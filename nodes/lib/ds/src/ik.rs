@@ -102,6 +102,17 @@ pub struct LinkTask {
     pub obstacle_velocity: Vector3<f64>,
 }
 
+/// A null-space motion primitive's step (thesis Sec. 4.1.1, Fig. 4.1): the origin of link
+/// `link` (the elbow) should move with `velocity`, at the lowest priority, in what the
+/// end-effector task (and an active link task) leave of the redundancy.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointTask {
+    /// Link index in the model; the task acts on its origin.
+    pub link: usize,
+    /// Desired velocity of that origin (m/s, base frame).
+    pub velocity: Vector3<f64>,
+}
+
 /// End-effector twist [v; w]: linear (m/s) then angular (rad/s) velocity, base frame.
 pub type Twist = SVector<f64, 6>;
 
@@ -133,6 +144,9 @@ pub struct IkReport {
     pub link_velocity_desired: Vector3<f64>,
     /// Link-point velocity achieved by the final (unsaturated) q̇ (m/s).
     pub link_velocity: Vector3<f64>,
+    /// Velocity of the null-space primitive's link origin under the final (unsaturated) q̇
+    /// (m/s); zero without a [`PointTask`].
+    pub point_velocity: Vector3<f64>,
     /// Joints taken out of the end-effector task on their position limit (see
     /// [`IkConfig::release_limited_joints`]).
     pub released_joints: u8,
@@ -223,6 +237,27 @@ impl Ik {
         at: Option<(&JointVector, f64)>,
         report: &mut IkReport,
     ) -> JointVector {
+        self.solve_with_null_space(model, poses, tip, twist, link_task, posture, None, at, report)
+    }
+
+    /// [`solve_with_posture`](Self::solve_with_posture) with a null-space motion primitive:
+    /// with `point` the lowest priority is that [`PointTask`] instead of `posture`, in the
+    /// task-priority form q̇ += N_k (J_p N_k)† (ẋ_p − J_p q̇_k), N_k the null space of the tasks
+    /// above it and q̇_k their solution, so the point gets the best velocity the redundancy
+    /// allows without touching them (Sec. 4.1.1).
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve_with_null_space(
+        &mut self,
+        model: &RobotModel,
+        poses: &LinkPoses,
+        tip: usize,
+        twist: &Twist,
+        link_task: Option<&LinkTask>,
+        posture: &JointVector,
+        point: Option<&PointTask>,
+        at: Option<(&JointVector, f64)>,
+        report: &mut IkReport,
+    ) -> JointVector {
         model.jacobian(poses, tip, &Point3::origin(), &mut self.jac);
         self.tool = self.jac.fixed_rows::<3>(0).into_owned();
         let mut pinv = damped_pseudo_inverse(&self.jac, self.cfg.damping);
@@ -249,30 +284,49 @@ impl Ik {
                 q1 = pinv * twist;
             }
         }
-        let Some(task) = link_task else {
-            if posture.iter().all(|v| *v == 0.0) {
-                return q1;
-            }
-            let n = null_space_projector(&self.jac, &pinv);
-            return q1 + self.secondary_scale(model, &q1, &(n * posture)) * (n * posture);
-        };
-        let in_link = poses.get(task.link).inverse_transform_point(&task.point);
-        model.position_jacobian(poses, task.link, &in_link, &mut self.pj);
-        let n = null_space_projector(&self.jac, &pinv);
-        let x_l = self.pj * q1;
-        let desired = task.modulation * (x_l - task.obstacle_velocity) + task.obstacle_velocity;
-        let jn: PositionJacobian = self.pj * n;
-        let jn_pinv = damped_pseudo_inverse_3(&jn, self.cfg.link_damping);
-        let mut secondary = n * (jn_pinv * (desired - x_l));
-        if posture.iter().any(|v| *v != 0.0) {
-            // Null space of both tasks: N (I − (J_l N)† (J_l N)).
-            let n2 = n * (cowork_robot::JointMatrix::identity() - jn_pinv * jn);
-            secondary += n2 * posture;
+        let lowest_off = point.is_none() && posture.iter().all(|v| *v == 0.0);
+        if link_task.is_none() && lowest_off {
+            return q1;
         }
-        let q = q1 + self.secondary_scale(model, &q1, &secondary) * secondary;
-        report.link_velocity_desired = desired;
-        report.link_velocity = self.pj * q;
-        q
+        let n = null_space_projector(&self.jac, &pinv);
+        // The link task (eq. 5.13) above the lowest one, and the null space it leaves.
+        let (mut secondary, n_low) = match link_task {
+            Some(task) => {
+                let in_link = poses.get(task.link).inverse_transform_point(&task.point);
+                model.position_jacobian(poses, task.link, &in_link, &mut self.pj);
+                let x_l = self.pj * q1;
+                let desired = task.modulation * (x_l - task.obstacle_velocity) + task.obstacle_velocity;
+                let jn: PositionJacobian = self.pj * n;
+                let jn_pinv = damped_pseudo_inverse_3(&jn, self.cfg.link_damping);
+                report.link_velocity_desired = desired;
+                // Null space of both tasks: N (I − (J_l N)† (J_l N)).
+                (n * (jn_pinv * (desired - x_l)), n * (cowork_robot::JointMatrix::identity() - jn_pinv * jn))
+            }
+            None => (JointVector::zeros(), n),
+        };
+        match point {
+            Some(p) => {
+                let mut jp = PositionJacobian::zeros();
+                model.position_jacobian(poses, p.link, &Point3::origin(), &mut jp);
+                let jn: PositionJacobian = jp * n_low;
+                let jn_pinv = damped_pseudo_inverse_3(&jn, self.cfg.link_damping);
+                secondary += n_low * (jn_pinv * (p.velocity - jp * (q1 + secondary)));
+                let q = q1 + self.secondary_scale(model, &q1, &secondary) * secondary;
+                report.point_velocity = jp * q;
+                if link_task.is_some() {
+                    report.link_velocity = self.pj * q;
+                }
+                q
+            }
+            None => {
+                secondary += n_low * posture;
+                let q = q1 + self.secondary_scale(model, &q1, &secondary) * secondary;
+                if link_task.is_some() {
+                    report.link_velocity = self.pj * q;
+                }
+                q
+            }
+        }
     }
 }
 

@@ -28,6 +28,19 @@ pub trait LearnedField: Send + std::fmt::Debug {
     /// by `dt` (s; the controller passes α_h-scaled time, so velocity scaling slows a DMP's
     /// phase too). Allocation-free; a non-finite result holds the robot.
     fn velocity(&mut self, x: &Vector3<f64>, goal: &Vector3<f64>, dt: f64) -> Vector3<f64>;
+
+    /// The link whose origin a null-space motion primitive of this field moves (thesis Sec.
+    /// 4.1.1: an elbow path run in the end-effector task's null space), if it has one.
+    fn null_space_link(&self) -> Option<usize> {
+        None
+    }
+
+    /// Desired velocity (m/s, base frame) of that link origin, now at `x` (m), on the clock the
+    /// last [`velocity`](Self::velocity) call advanced. Allocation-free; a non-finite result
+    /// holds the robot.
+    fn null_space_velocity(&mut self, _x: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::zeros()
+    }
 }
 
 /// Linear DS ẋ = k (g − x) (Fig. 5.3–5.6 use k = 2 and k = 3).

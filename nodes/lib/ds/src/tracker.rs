@@ -109,6 +109,16 @@ impl PathTracker {
     }
 }
 
+impl PathTracker {
+    /// Desired velocity at `x` (m) at path time `tau` (s) without advancing the own clock:
+    /// ẋ = v_ref(τ) + k_p (p_ref(τ) + offset − x). A path run on another path's clock (a
+    /// null-space primitive on the end-effector path's τ) uses this.
+    pub fn velocity_at(&self, tau: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        let (p, v) = self.at(tau);
+        v + (p + self.offset - x) * self.gain
+    }
+}
+
 impl LearnedField for PathTracker {
     fn reset(&mut self, x0: &Vector3<f64>, _goal: &Vector3<f64>) {
         self.tau = 0.0;
@@ -117,8 +127,7 @@ impl LearnedField for PathTracker {
 
     fn velocity(&mut self, x: &Vector3<f64>, _goal: &Vector3<f64>, dt: f64) -> Vector3<f64> {
         self.tau += dt;
-        let (p, v) = self.at(self.tau);
-        v + (p + self.offset - x) * self.gain
+        self.velocity_at(self.tau, x)
     }
 }
 
