@@ -335,3 +335,60 @@ fn one_refinement_round_moves_the_pick_and_place_towards_the_new_goal() {
     assert!(ok && shown.contains("version 2") && shown.contains("v2: seed 2 execution 1"), "{shown}");
     nothing_left(&logs, 2);
 }
+
+/// refine-elbow (Sec. 4.1.3, Fig. 4.5), one round at half speed: the elbow primitive runs in
+/// the null space, the person's push on the upper arm reaches lwr_sim and ds_controller keeps
+/// it below the tool ([T_ee, T_ic]), and the elbow alone afterwards keeps farther from the
+/// obstacle than before while the tool stays on its path.
+#[test]
+fn one_elbow_refinement_round_moves_the_elbow_away_from_the_obstacle() {
+    let bins = bin_dir();
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("run.json");
+    let logs = dir.path().join("logs");
+    let (ok, out) = cowork(
+        &[
+            "experiment",
+            "refine-elbow",
+            "--seed",
+            "1",
+            "--refinements",
+            "1",
+            "--rate",
+            "0.5",
+            "--json",
+            json.to_str().unwrap(),
+            "--logs",
+            logs.to_str().unwrap(),
+            "--bin-dir",
+            bins.to_str().unwrap(),
+        ],
+        Duration::from_secs(400),
+    );
+    assert!(ok, "{out}");
+    let run: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let t = &run["trials"][0];
+    let ex = t["executions"].as_array().unwrap_or_else(|| panic!("{t}"));
+    assert_eq!(ex.len(), 3, "{out}");
+    let f = |e: &serde_json::Value, k: &str| e[k].as_f64().unwrap_or_else(|| panic!("{k}: {e}"));
+    // Execution 0 goes through the obstacle (placed on its elbow path).
+    assert!(f(&ex[0], "min_clearance_mm") < 0.0, "{}", ex[0]);
+    // The push reached lwr_sim from 2.5 s on, below f_s, and ds_controller ran [T_ee, T_ic].
+    assert_eq!(ex[1]["pushed"], true);
+    let contact = f(&ex[1], "first_contact_s");
+    assert!((2.4..2.9).contains(&contact), "{}", ex[1]);
+    assert!(f(&ex[1], "max_push_n") < 15.0, "{}", ex[1]);
+    let guided = ex[1]["guided"].to_string();
+    assert!(guided.contains("lwr_link_3") && guided.contains("[T_ee, T_ic]") && !guided.contains("[T_ic, T_ee]"), "{guided}");
+    // Measured on a quiet machine: -13 mm, then 24 mm pushed and 43 mm alone; the tool within
+    // 0.4 mm of its path.
+    assert_eq!(ex[2]["pushed"], false);
+    assert_eq!(ex[2]["version"], 2);
+    assert!(f(&ex[2], "min_clearance_mm") > f(&ex[0], "min_clearance_mm") + 20.0, "{out}");
+    assert!(f(&ex[2], "tool_path_offset_mm") < 5.0, "{out}");
+    let db = cowork_manager::Database::load(Path::new(t["database"].as_str().unwrap())).unwrap();
+    let e = db.hmm("pick_place_elbow").unwrap();
+    assert_eq!((e.version, e.history.len()), (2, 1));
+    assert_eq!(db.hmm("pick_place").unwrap().version, 1, "the end-effector primitive is not refined");
+    nothing_left(&logs, 2);
+}

@@ -428,3 +428,96 @@ fn an_hmm_null_space_primitive_moves_the_elbow_and_leaves_the_tool_alone() {
     let r = with(serde_json::json!({"link": "lwr_link_4", "model": elbow_hmm}), MotionCommandMsg::KIND_DMP, &dmp);
     assert!(r.contains("HMM's clock"), "{r}");
 }
+
+/// Thesis Sec. 4.1.3 (elbow refinement) without DDS: with the parameters of
+/// `config/ds_controller.yaml`, a slow pick-and-place HMM runs while a person presses the upper
+/// arm with 14 N (between f_i and f_s: T² = [T_ee, T_ic]) along the elbow's swivel direction;
+/// the elbow gives way, the tool stays on the path it takes alone.
+#[test]
+fn an_elbow_push_below_f_s_moves_the_elbow_and_leaves_the_tool_on_its_path() {
+    use cowork_ds::ExternalWrench;
+    let model = lwr();
+    let params: Params = cowork_ros::params::load(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../config/ds_controller.yaml"),
+        "ds_controller",
+    )
+    .expect("params");
+    let demos: Vec<Demonstration> = (0..5)
+        .map(|k| {
+            let bow = [0.01 * (k as f64 - 2.0) / 2.0, 0.0, 0.08 + 0.01 * k as f64];
+            Demonstration::minimum_jerk(&[0.40, 0.25, 0.10], &[0.6, -0.14, 0.027], &bow, 9.5 + 0.2 * k as f64, 0.5, 0.01).expect("demo")
+        })
+        .collect();
+    let hmm = Model::fit(ModelKind::Hmm, &demos, &FitOptions::default()).expect("fit");
+    let json = serde_json::to_string(&hmm).expect("json");
+    let q0 = JointVector::from_row_slice(&[33.8f64, 41.6, -2.3, 106.5, 2.9, 31.9, 29.6].map(f64::to_radians));
+    let elbow = model.link_index("lwr_link_4").expect("elbow");
+    let upper_arm = model.link_index("lwr_link_3").expect("upper arm");
+    let run = |push: bool, json: &str| {
+        let adapter = Adapter::new(&model, &params);
+        let x0 = model.link_pose(&q0, model.tip_link()).translation.vector;
+        let (cmd, learned) = adapter.command(&command(21, MotionCommandMsg::KIND_HMM, x0, json.to_owned())).expect("command");
+        let mut field = learned.expect("model");
+        let mut ctl = DsController::new(model.clone(), params.controller).expect("controller");
+        let mut out = ControlOutput::default();
+        let mut q = q0;
+        let dt = ctl.config().period_s;
+        let (mut tool, mut elbows, mut max_w3): (Vec<Vector3<f64>>, Vec<Vector3<f64>>, f64) = (Vec::new(), Vec::new(), 0.0);
+        let mut u = Vector3::zeros();
+        for k in 0..(11.0 / dt) as usize {
+            let t = k as f64 * dt;
+            if k % 10 == 0 {
+                tool.push(model.link_pose(&q, model.tip_link()).translation.vector);
+                elbows.push(model.link_pose(&q, elbow).translation.vector);
+            }
+            if k == 2500 {
+                // The swivel direction now: the elbow's motion in the null space of the tool pose.
+                let mut poses = cowork_robot::LinkPoses::new();
+                model.forward_kinematics(&q, &mut poses);
+                let mut j = cowork_robot::Jacobian::zeros();
+                model.jacobian(&poses, model.tip_link(), &nalgebra::Point3::origin(), &mut j);
+                let n = cowork_robot::null_space_projector(&j, &cowork_robot::damped_pseudo_inverse(&j, 1e-6));
+                let v = (0..7).map(|c| n.column(c).into_owned()).max_by(|a, b| a.norm().total_cmp(&b.norm())).expect("column");
+                let mut jl = cowork_robot::PositionJacobian::zeros();
+                model.position_jacobian(&poses, elbow, &nalgebra::Point3::origin(), &mut jl);
+                u = (jl * v).normalize();
+            }
+            let input = ControlInput {
+                time: t,
+                q,
+                command: cmd,
+                distances: Distances::clear(t),
+                human: HumanInput { stamp: t, state: HumanState::default() },
+            };
+            let wrench = ExternalWrench { stamp: t, link: upper_arm, force: u * 14.0 };
+            let w = (push && (2.5..7.0).contains(&t)).then_some(&wrench);
+            ctl.step_with_contact(&input, Some(&mut field as &mut dyn LearnedField), w, &mut out).expect("step");
+            max_w3 = max_w3.max(out.diagnostics.contact.weights[2]);
+            q += out.qdot * dt;
+        }
+        (tool, elbows, u, max_w3)
+    };
+    let (tool0, elbow0, _, _) = run(false, &json);
+    // With an elbow primitive too: the elbow's own path taught back as a null-space HMM.
+    let t: Vec<f64> = (0..elbow0.len()).map(|k| k as f64 * 0.01).collect();
+    let elbow_demo = |dz: f64| {
+        let pos = elbow0.iter().flat_map(|p| [p.x, p.y, p.z + dz]).collect();
+        Demonstration::new(3, t.clone(), pos, None).expect("elbow demo")
+    };
+    let elbow_hmm = Model::fit(ModelKind::Hmm, &[elbow_demo(-0.002), elbow_demo(0.0), elbow_demo(0.002)], &FitOptions::default()).expect("elbow fit");
+    let mut v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    v["null_space"] = serde_json::json!({"link": "lwr_link_4", "model": elbow_hmm});
+    let with_elbow = v.to_string();
+    let (tool_e, _, _, _) = run(false, &with_elbow);
+    let elbow_primitive_moved_tool = tool0.iter().zip(&tool_e).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    eprintln!("the elbow primitive alone moves the tool by {:.2} mm", elbow_primitive_moved_tool * 1e3);
+    let (tool1, elbow1, u, w3) = run(true, &with_elbow);
+    let tool_moved = tool0.iter().zip(&tool1).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+    let along: Vec<f64> = elbow0.iter().zip(&elbow1).map(|(a, b)| (b - a).dot(&u)).collect();
+    let elbow_moved = along.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    eprintln!("elbow push 14 N: elbow moved up to {:.1} mm along the push, tool moved {:.2} mm, w3 up to {w3:.3}", elbow_moved * 1e3, tool_moved * 1e3);
+    assert!(elbow_moved > 0.05, "the elbow moved {elbow_moved} m");
+    assert!(tool_moved < 0.003, "the tool moved {tool_moved} m");
+    assert!(w3 == 0.0, "T³ got weight {w3}");
+    assert!(elbow_primitive_moved_tool < 0.003, "{elbow_primitive_moved_tool}");
+}

@@ -32,7 +32,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Arguments of `cowork experiment`.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5), coffee-cooperative (Fig. 5.21), coffee-closed-bottle (Fig. 5.22), tea-reuse (Table 5.6), refine-goal (Sec. 4.1.3, Fig. 4.4).
+    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5), coffee-cooperative (Fig. 5.21), coffee-closed-bottle (Fig. 5.22), tea-reuse (Table 5.6), refine-goal (Sec. 4.1.3, Fig. 4.4), refine-elbow (Sec. 4.1.3, Fig. 4.5-4.7).
     pub name: String,
     /// Trials (seeds seed, seed + 1, ...).
     #[arg(long, default_value_t = 1)]
@@ -84,10 +84,14 @@ pub struct ExperimentArgs {
     /// up to the table, reaches once into the robot's workspace and leaves).
     #[arg(long)]
     pub no_person: bool,
-    /// refine-goal: most refined executions (rounds of one execution with the person and one
-    /// alone) before the trial fails.
+    /// refine-goal, refine-elbow: most refined executions (rounds of one execution with the
+    /// person and one alone) before the trial fails.
     #[arg(long, default_value_t = 5)]
     pub refinements: u32,
+    /// refine-goal, refine-elbow: ds_controller's TTC switch force f_s (N) instead of the one
+    /// in --ds-params (Fig. 4.7's sweep: 5, 15, 30).
+    #[arg(long)]
+    pub switch_force: Option<f64>,
     /// Wall-clock seconds to wait for every node to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,

@@ -15,6 +15,7 @@ pub mod observe;
 pub mod report;
 pub mod primitives;
 pub mod refine;
+pub mod refine_elbow;
 pub mod robot;
 pub mod say;
 pub mod scenario;

@@ -37,10 +37,11 @@ use cowork_motion::model::Model;
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion, Vector3 as RosVector3, Wrench, WrenchStamped};
 use cowork_msgs::msg::{HumanState, LinkDistance, LinkDistances, MotionCommand, MotionStatus, WorldState};
+use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::Header;
 use cowork_msgs::topics::{self, Delivery};
 use cowork_people::guide::Guide;
-use cowork_robot::RobotModel;
+use cowork_robot::{JointVector, RobotModel};
 use cowork_ros::{NodeConfig, Publisher, RosNode, Subscription, shutdown};
 use nalgebra::{UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -48,8 +49,8 @@ use serde::{Deserialize, Serialize};
 
 use super::experiment::ExperimentArgs;
 
-/// The experiments of this module.
-pub const NAMES: [&str; 1] = ["refine-goal"];
+/// The experiments of this module (refine-elbow in [`super::refine_elbow`]).
+pub const NAMES: [&str; 2] = ["refine-goal", "refine-elbow"];
 
 /// Pick point P (m, base frame of `config/scenes/refine.yaml`).
 pub const PICK: [f64; 3] = [0.40, 0.25, 0.10];
@@ -83,10 +84,15 @@ pub fn hmm_config() -> HmmConfig {
 /// a lift of 7–12 cm and a sideways arc of up to ±1.5 cm at mid-way, the object put down
 /// within ±3 mm of g per axis, then 0.5 s at rest (m, base frame).
 pub fn demonstrations(seed: u64) -> Result<Vec<Demonstration>> {
+    demonstrations_lasting(seed, 4.6..5.4)
+}
+
+/// [`demonstrations`] lasting `durations` (s) each, drawn from `seed`.
+pub fn demonstrations_lasting(seed: u64, durations: std::ops::Range<f64>) -> Result<Vec<Demonstration>> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     (0..5)
         .map(|_| {
-            let duration = rng.random_range(4.6..5.4);
+            let duration = rng.random_range(durations.clone());
             let bow = [rng.random_range(-0.015..0.015), rng.random_range(-0.015..0.015), rng.random_range(0.07..0.12)];
             let end: Vec<f64> = GOAL.iter().map(|g| g + rng.random_range(-0.003..0.003)).collect();
             Demonstration::minimum_jerk(&PICK, &end, &bow, duration, 0.5, SAMPLE_S).context("synthetic demonstration")
@@ -188,7 +194,7 @@ pub struct Summary {
     pub thesis_executions: u32,
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
+pub(super) fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.is_empty() {
         return None;
     }
@@ -237,13 +243,14 @@ struct DsControllerTtc {
     ttc: TtcConfig,
 }
 
-/// Runs `cowork experiment refine-goal`.
-pub fn run(args: &ExperimentArgs) -> Result<()> {
+/// Checks the flags, the binaries and ds_controller's TTC parameters shared by refine-goal and
+/// refine-elbow; the robot model and the TTC settings.
+pub(super) fn prepare(args: &ExperimentArgs) -> Result<(RobotModel, TtcConfig)> {
     if args.trials == 0 {
         bail!("--trials must be at least 1");
     }
     if args.max {
-        bail!("refine-goal needs a paced clock (--rate): the person pushes on the simulated clock");
+        bail!("{} needs a paced clock (--rate): the person pushes on the simulated clock", args.name);
     }
     if !(args.rate.is_finite() && args.rate > 0.0) {
         bail!("--rate {} must be > 0", args.rate);
@@ -264,9 +271,43 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
     let ds: DsParamsTtc = cowork_ros::params::load(&args.ds_params, "ds_controller")
         .with_context(|| format!("--ds-params {}", args.ds_params.display()))?;
     if !ds.controller.ttc.enabled {
-        bail!("--ds-params {}: controller.ttc.enabled is false; refine-goal needs task transition control", args.ds_params.display());
+        bail!("--ds-params {}: controller.ttc.enabled is false; {} needs task transition control", args.ds_params.display(), args.name);
+    }
+    let mut ttc = ds.controller.ttc;
+    if let Some(f) = args.switch_force {
+        ttc.switch_force = f;
+        ttc.validate().with_context(|| format!("--switch-force {f} with --ds-params {}", args.ds_params.display()))?;
     }
     let model = RobotModel::from_urdf_file(root.join("config/robot/lwr4plus.urdf"))?;
+    Ok((model, ttc))
+}
+
+/// ds_controller's parameter file for a trial: `--ds-params` itself, or a copy in `dir` with
+/// `--switch-force` as controller.ttc.switch_force.
+fn ds_params(args: &ExperimentArgs, dir: &Path) -> Result<PathBuf> {
+    let Some(f) = args.switch_force else { return Ok(args.ds_params.clone()) };
+    let src = &args.ds_params;
+    let text = std::fs::read_to_string(src).with_context(|| format!("reading {}", src.display()))?;
+    let mut v: serde_yaml_ng::Value = serde_yaml_ng::from_str(&text).with_context(|| format!("parsing {}", src.display()))?;
+    let ttc = v
+        .get_mut("ds_controller")
+        .and_then(|n| n.get_mut("ros__parameters"))
+        .and_then(|n| n.get_mut("controller"))
+        .and_then(|n| n.get_mut("ttc"))
+        .and_then(|n| n.as_mapping_mut())
+        .with_context(|| format!("{}: no ds_controller.ros__parameters.controller.ttc", src.display()))?;
+    ttc.insert("switch_force".into(), f.into());
+    let out = dir.join("ds_controller.yaml");
+    std::fs::write(&out, serde_yaml_ng::to_string(&v)?).with_context(|| format!("writing {}", out.display()))?;
+    Ok(out)
+}
+
+/// Runs `cowork experiment refine-goal` (or refine-elbow).
+pub fn run(args: &ExperimentArgs) -> Result<()> {
+    if args.name == "refine-elbow" {
+        return super::refine_elbow::run(args);
+    }
+    let (model, ttc) = prepare(args)?;
     shutdown::install();
     let mut trials = Vec::new();
     for k in 0..args.trials {
@@ -274,7 +315,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             break;
         }
         let seed = args.seed + u64::from(k);
-        let t = run_trial(args, &model, seed, k, ds.controller.ttc.insert_force)?;
+        let t = run_trial(args, &model, seed, k, ttc.insert_force)?;
         print_trial(&t);
         trials.push(t);
         if let Some(path) = &args.json {
@@ -286,14 +327,14 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
     Ok(())
 }
 
-fn write_json(path: &Path, run: &RefineRun) -> Result<()> {
+pub(super) fn write_json(path: &Path, run: &impl Serialize) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
     std::fs::write(path, serde_json::to_string_pretty(run)? + "\n").with_context(|| format!("writing {}", path.display()))
 }
 
-fn opt_mm(v: Option<f64>) -> String {
+pub(super) fn opt_mm(v: Option<f64>) -> String {
     v.map_or("-".into(), |v| format!("{v:.2}"))
 }
 
@@ -339,10 +380,25 @@ fn sim_params(dir: &Path) -> Result<PathBuf> {
     Ok(out)
 }
 
+/// Who pushes the arm during an execution.
+pub(super) trait Person {
+    /// The push `t` s after the command, with the tool at `tool` (m, base frame) and the joints
+    /// at `q` (rad): the frame it is expressed in and applied at (`""`: base frame, at the
+    /// tool; a link name: that link's frame, on that link) and the force (N), or none.
+    fn push(&self, t: f64, tool: &Vector3<f64>, q: &JointVector) -> Option<(String, Vector3<f64>)>;
+}
+
+impl Person for Guide {
+    fn push(&self, t: f64, tool: &Vector3<f64>, _q: &JointVector) -> Option<(String, Vector3<f64>)> {
+        Guide::push(self, t, tool).map(|f| (String::new(), f))
+    }
+}
+
 /// The runner's side of the graph.
-struct Io {
-    node: RosNode,
+pub(super) struct Io {
+    pub(super) node: RosNode,
     world: Subscription<WorldState>,
+    joints: Subscription<JointState>,
     status: Subscription<MotionStatus>,
     reports: Subscription<WrenchStamped>,
     motion: Publisher<MotionCommand>,
@@ -350,7 +406,16 @@ struct Io {
     distances: Publisher<LinkDistances>,
     human: Publisher<HumanState>,
     link_names: Vec<String>,
-    insert_force: f64,
+    pub(super) model: RobotModel,
+    /// Each model joint's index in `/joint_states` (from the first message's names).
+    joint_order: Option<[usize; cowork_robot::DOF]>,
+    /// Newest joint positions (stamp s, rad).
+    pub(super) q: Option<(f64, JointVector)>,
+    /// Joint positions with their stamps while recording.
+    joint_samples: Vec<(f64, JointVector)>,
+    /// ds_controller's distinct "guided: …" status reasons while recording (which TTC stacks).
+    guided: Vec<String>,
+    pub(super) insert_force: f64,
     last_feed: f64,
     /// Newest tool pose (stamp s, position m, orientation).
     tool: Option<(f64, Vector3<f64>, UnitQuaternion<f64>)>,
@@ -374,13 +439,13 @@ fn header(t: f64, frame: &str) -> Header {
 }
 
 impl Io {
-    fn now(&self) -> f64 {
+    pub(super) fn now(&self) -> f64 {
         self.node.now().to_secs_f64()
     }
 
     /// Drains the subscriptions, feeds the controller's other inputs every 10 ms of simulated
     /// time; fails when a node died.
-    fn pump(&mut self, graph: &mut Graph) -> Result<f64> {
+    pub(super) fn pump(&mut self, graph: &mut Graph) -> Result<f64> {
         if let Some(e) = graph.exited() {
             bail!("node died: {e}");
         }
@@ -398,8 +463,28 @@ impl Io {
             }
             self.tool = Some((t, x, q));
         }
+        while let Some(js) = self.joints.take() {
+            if self.joint_order.is_none() {
+                let order: Option<Vec<usize>> =
+                    self.model.joint_names().iter().map(|n| js.name.iter().position(|m| m == n)).collect();
+                self.joint_order = order.and_then(|o| o.try_into().ok());
+            }
+            let Some(order) = self.joint_order else { continue };
+            if order.iter().any(|&i| i >= js.position.len()) {
+                continue;
+            }
+            let q = JointVector::from_fn(|j, _| js.position[order[j]]);
+            let t = js.header.stamp.to_secs_f64();
+            if self.recording {
+                self.joint_samples.push((t, q));
+            }
+            self.q = Some((t, q));
+        }
         while let Some(s) = self.status.take() {
             self.heard_status = true;
+            if self.recording && s.reason.starts_with("guided") && !self.guided.contains(&s.reason) {
+                self.guided.push(s.reason.clone());
+            }
             if s.command_id == self.watch_id && self.started_at.is_none() {
                 self.started_at = Some(s.header.stamp.to_secs_f64());
             }
@@ -442,7 +527,7 @@ impl Io {
         Instant::now() + cowork_ros::duration_s(sim_s / self.rate * 4.0 + 30.0)
     }
 
-    fn tool(&self) -> Result<(Vector3<f64>, UnitQuaternion<f64>)> {
+    pub(super) fn tool(&self) -> Result<(Vector3<f64>, UnitQuaternion<f64>)> {
         self.tool.map(|(_, x, q)| (x, q)).context("no /lwr/world from lwr_sim")
     }
 
@@ -465,14 +550,18 @@ impl Io {
 }
 
 /// What one execution did.
-struct Run {
+pub(super) struct Run {
     /// Tool path on the [`SAMPLE_S`] grid from the command over the generated path's duration.
-    path: Vec<Vector3<f64>>,
-    end: Vector3<f64>,
-    first_contact_s: Option<f64>,
-    max_push_n: f64,
-    sim_end: f64,
-    start_delay_s: Option<f64>,
+    pub(super) path: Vec<Vector3<f64>>,
+    /// Joint positions on the same grid (the newest report at or before each time; rad).
+    pub(super) joints: Vec<JointVector>,
+    pub(super) end: Vector3<f64>,
+    pub(super) first_contact_s: Option<f64>,
+    pub(super) max_push_n: f64,
+    pub(super) sim_end: f64,
+    pub(super) start_delay_s: Option<f64>,
+    /// ds_controller's distinct "guided: …" reasons during the execution (the TTC stacks).
+    pub(super) guided: Vec<String>,
 }
 
 /// Linear interpolation of stamped samples on the grid `t0 + k·dt`, k < n (clamped at the ends).
@@ -494,8 +583,23 @@ fn resample(samples: &[(f64, Vector3<f64>)], t0: f64, dt: f64, n: usize) -> Vec<
     out
 }
 
+/// The newest of the stamped `samples` at or before each time `t0 + k·dt`, k < n (the first
+/// before it starts).
+fn hold_last(samples: &[(f64, JointVector)], t0: f64, dt: f64, n: usize) -> Vec<JointVector> {
+    let mut j = 0;
+    (0..n)
+        .map(|k| {
+            let t = t0 + k as f64 * dt;
+            while j + 1 < samples.len() && samples[j + 1].0 <= t {
+                j += 1;
+            }
+            samples[j].1
+        })
+        .collect()
+}
+
 /// Largest distance from the first `n` points of `a` to the polyline of the first `n` of `b` (m).
-fn max_offset(a: &[Vector3<f64>], b: &[Vector3<f64>], n: usize) -> f64 {
+pub(super) fn max_offset(a: &[Vector3<f64>], b: &[Vector3<f64>], n: usize) -> f64 {
     let b = &b[..n.min(b.len())];
     let to_segment = |p: &Vector3<f64>, s: &[Vector3<f64>]| {
         let d = s[1] - s[0];
@@ -513,23 +617,23 @@ fn max_offset(a: &[Vector3<f64>], b: &[Vector3<f64>], n: usize) -> f64 {
 }
 
 /// Largest distance between `a` and `b` over their first `n` samples (m).
-fn max_deviation(a: &[Vector3<f64>], b: &[Vector3<f64>], n: usize) -> f64 {
+pub(super) fn max_deviation(a: &[Vector3<f64>], b: &[Vector3<f64>], n: usize) -> f64 {
     a.iter().zip(b).take(n).map(|(p, q)| (p - q).norm()).fold(0.0, f64::max)
 }
 
-struct Trial<'a> {
-    io: Io,
-    graph: Graph,
+pub(super) struct Trial<'a> {
+    pub(super) io: Io,
+    pub(super) graph: Graph,
     next_id: u32,
-    pick: Vector3<f64>,
+    pub(super) pick: Vector3<f64>,
     down: UnitQuaternion<f64>,
-    args: &'a ExperimentArgs,
+    pub(super) args: &'a ExperimentArgs,
 }
 
 impl Trial<'_> {
     /// Back to the pick point with the tool pointing down (linear DS, gain 2/s), until the
     /// tool has been within 0.5 mm of it for 0.3 s.
-    fn go_to_pick(&mut self) -> Result<()> {
+    pub(super) fn go_to_pick(&mut self) -> Result<()> {
         self.next_id += 1;
         let id = self.next_id;
         self.io.command(id, MotionCommand::KIND_LINEAR, &self.pick, Some(&self.down), String::new(), Some(2.0))?;
@@ -554,9 +658,9 @@ impl Trial<'_> {
         }
     }
 
-    /// Runs the HMM `json` (path `tracker`) from the pick point; with `guide` the person
-    /// pushes. Returns what the tool did.
-    fn execute(&mut self, json: &str, tracker: &PathTracker, guide: Option<&Guide>) -> Result<Run> {
+    /// Runs the HMM `json` (path `tracker`) from the pick point; with `person` somebody
+    /// pushes. Returns what the arm did.
+    pub(super) fn execute(&mut self, json: &str, tracker: &PathTracker, person: Option<&dyn Person>) -> Result<Run> {
         self.go_to_pick()?;
         let (x0, _) = self.io.tool()?;
         self.next_id += 1;
@@ -567,6 +671,11 @@ impl Trial<'_> {
         self.io.samples.clear();
         if let Some((t, x, _)) = self.io.tool {
             self.io.samples.push((t, x));
+        }
+        self.io.joint_samples.clear();
+        self.io.guided.clear();
+        if let Some(q) = self.io.q {
+            self.io.joint_samples.push(q);
         }
         self.io.recording = true;
         self.io.first_report = None;
@@ -593,16 +702,16 @@ impl Trial<'_> {
             if Instant::now() > deadline {
                 bail!("simulated time too slow: {t:.1} s of {:.1} s in the wall-clock limit", duration + SETTLE_S);
             }
-            // The person reacts to where the tool is (/lwr/world, 100 Hz) every 5 ms.
-            if let (Some(g), Some((stamp, x, _))) = (guide, self.io.tool)
+            // The person reacts to where the arm is (/lwr/world, 100 Hz) every 5 ms.
+            if let (Some(p), Some((stamp, x, _)), Some((_, q))) = (person, self.io.tool, self.io.q)
                 && now - last_push >= 0.005
                 && stamp > last_tool_stamp
             {
                 last_push = now;
                 last_tool_stamp = stamp;
-                if let Some(f) = g.push(t, &x) {
+                if let Some((frame, f)) = p.push(t, &x, &q) {
                     self.io.push.publish(WrenchStamped {
-                        header: header(now, ""),
+                        header: header(now, &frame),
                         wrench: Wrench { force: RosVector3 { x: f.x, y: f.y, z: f.z }, torque: RosVector3::default() },
                     })?;
                 }
@@ -616,6 +725,10 @@ impl Trial<'_> {
         if samples.len() < 2 {
             bail!("no /lwr/world reports during the execution");
         }
+        let joint_samples = std::mem::take(&mut self.io.joint_samples);
+        if joint_samples.is_empty() {
+            bail!("no /joint_states during the execution");
+        }
         let end_from = t_cmd + duration + SETTLE_S - END_WINDOW_S;
         let tail: Vec<_> = samples.iter().filter(|s| s.0 >= end_from).map(|s| s.1).collect();
         if tail.is_empty() {
@@ -624,6 +737,8 @@ impl Trial<'_> {
         let end = tail.iter().sum::<Vector3<f64>>() / tail.len() as f64;
         Ok(Run {
             path: resample(&samples, t_cmd, SAMPLE_S, n),
+            joints: hold_last(&joint_samples, t_cmd, SAMPLE_S, n),
+            guided: std::mem::take(&mut self.io.guided),
             end,
             first_contact_s: self.io.first_report.map(|t| t - t_cmd),
             max_push_n: self.io.max_report,
@@ -633,27 +748,71 @@ impl Trial<'_> {
     }
 }
 
-/// The model as the controller gets it, and its path (as ds_controller generates it).
-fn model_of(db: &Database) -> Result<(String, PathTracker, u32)> {
+/// The model as the controller gets it (with the null-space HMM `elbow` of the database on
+/// link `link`, if given), its path (as ds_controller generates it) and its version.
+pub(super) fn model_of(db: &Database, elbow: Option<(&str, &str)>) -> Result<(String, PathTracker, u32)> {
     let e = db.hmm(HMM_ID).context("the HMM is not in the database")?;
-    let json = serde_json::to_string(&Model::Hmm(e.model.clone()))?;
+    let mut value = serde_json::to_value(Model::Hmm(e.model.clone()))?;
+    if let Some((id, link)) = elbow {
+        let ns = db.hmm(id).with_context(|| format!("the null-space HMM {id} is not in the database"))?;
+        value["null_space"] = serde_json::json!({ "link": link, "model": Model::Hmm(ns.model.clone()) });
+    }
+    let json = value.to_string();
     let tr = e.model.generate(None, SAMPLE_S)?;
     let tracker = PathTracker::from_flat(&tr.pos, &tr.vel, SAMPLE_S, DEFAULT_GAIN)?;
     Ok((json, tracker, e.version))
 }
 
-fn unix_now() -> u64 {
+pub(super) fn unix_now() -> u64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0)
 }
 
 fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, insert_force: f64) -> Result<RefineTrial> {
     let wall0 = Instant::now();
+    let mut result = RefineTrial {
+        seed,
+        success: false,
+        reason: String::new(),
+        duration_s: 0.0,
+        wall_s: 0.0,
+        executions_to_reach: None,
+        threshold_mm: MIN_THRESHOLD_M * 1e3,
+        executions: Vec::new(),
+        database: String::new(),
+        min_distance_m: None,
+        collisions: None,
+    };
+    let demos = demonstrations(seed)?;
+    let (outcome, db_path) = with_graph(args, model, &demos, seed, k, insert_force, |trial, db, db_path| {
+        wait_for_graph(trial)?;
+        study(trial, db, db_path, seed, &mut result)
+    })?;
+    result.database = db_path.display().to_string();
+    if let Err(e) = outcome {
+        result.reason = format!("{e:#}");
+    }
+    result.wall_s = wall0.elapsed().as_secs_f64();
+    Ok(result)
+}
+
+/// One trial's graph: learns the pick-and-place HMM from `demos` into a new primitive database
+/// (`--logs`/NAME-SEED/lwr.primitives.json), starts `ds_controller` and `lwr_sim` on a private
+/// domain, runs `study` on them and stops them. Returns what `study` returned and the
+/// database's path.
+pub(super) fn with_graph<R>(
+    args: &ExperimentArgs,
+    model: &RobotModel,
+    demos: &[Demonstration],
+    seed: u64,
+    k: u32,
+    insert_force: f64,
+    study: impl FnOnce(&mut Trial<'_>, &mut Database, &Path) -> R,
+) -> Result<(R, PathBuf)> {
     let tag = format!("{}-{seed}", args.name);
     let logs = args.logs.join(&tag);
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     // Learn the primitive and store it.
-    let demos = demonstrations(seed)?;
-    let hmm = HmmPrimitive::fit(&demos, &hmm_config()).context("learning the pick-and-place HMM")?;
+    let hmm = HmmPrimitive::fit(demos, &hmm_config()).context("learning the pick-and-place HMM")?;
     let db_path = Database::path(&logs, "lwr");
     let mut db = Database::new("lwr");
     db.insert_hmm(HMM_ID, "place(object)", hmm, unix_now())?;
@@ -662,10 +821,10 @@ fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, inser
     let domain = cowork_graph::private_domain(130, 100, k);
     let mut graph = Graph::new(domain, &logs)?;
     let sim_params = sim_params(&logs)?;
-    let node = RosNode::new("cowork_experiment", &NodeConfig { use_sim_time: true, domain_id: Some(domain), ..NodeConfig::default() })?;
-    let mut node = node;
+    let mut node = RosNode::new("cowork_experiment", &NodeConfig { use_sim_time: true, domain_id: Some(domain), ..NodeConfig::default() })?;
     let io = Io {
         world: node.subscribe(&topics::WORLD)?,
+        joints: node.subscribe(&topics::JOINT_STATES)?,
         status: node.subscribe(&topics::MOTION_STATUS)?,
         reports: node.subscribe(&topics::LWR_EXTERNAL_WRENCH.reading(Delivery::BestEffort { depth: 2000 }))?,
         motion: node.advertise(&topics::MOTION_COMMAND)?,
@@ -674,6 +833,11 @@ fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, inser
         human: node.advertise(&topics::HUMAN_STATE)?,
         node,
         link_names: model.link_names().to_vec(),
+        model: model.clone(),
+        joint_order: None,
+        q: None,
+        joint_samples: Vec::new(),
+        guided: Vec::new(),
         insert_force,
         last_feed: f64::NEG_INFINITY,
         tool: None,
@@ -692,7 +856,7 @@ fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, inser
     graph.spawn(
         "ds_controller",
         &args.bin_dir.join("ds_controller"),
-        &["--params".into(), args.ds_params.display().to_string(), "--use-sim-time".into(), "--duration".into(), wall_limit],
+        &["--params".into(), ds_params(args, &logs)?.display().to_string(), "--use-sim-time".into(), "--duration".into(), wall_limit],
     )?;
     graph.spawn(
         "lwr_sim",
@@ -719,30 +883,14 @@ fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, inser
         down: UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.0, 0.0, 1.0, 0.0)),
         args,
     };
-    let mut result = RefineTrial {
-        seed,
-        success: false,
-        reason: String::new(),
-        duration_s: 0.0,
-        wall_s: 0.0,
-        executions_to_reach: None,
-        threshold_mm: MIN_THRESHOLD_M * 1e3,
-        executions: Vec::new(),
-        database: db_path.display().to_string(),
-        min_distance_m: None,
-        collisions: None,
-    };
-    let outcome = study(&mut trial, &mut db, &db_path, seed, &mut result);
+    let out = study(&mut trial, &mut db, &db_path);
     trial.graph.stop();
-    if let Err(e) = outcome {
-        result.reason = format!("{e:#}");
-    }
-    result.wall_s = wall0.elapsed().as_secs_f64();
-    Ok(result)
+    Ok((out, db_path))
 }
 
-/// Waits for the graph, then runs the executions (see the module docs).
-fn study(trial: &mut Trial<'_>, db: &mut Database, db_path: &Path, seed: u64, result: &mut RefineTrial) -> Result<()> {
+/// Waits until the graph runs: the clock, the tool pose, ds_controller's status, the joint
+/// states and every topic matched.
+pub(super) fn wait_for_graph(trial: &mut Trial<'_>) -> Result<()> {
     let deadline = Instant::now() + cowork_ros::duration_s(trial.args.startup_timeout);
     loop {
         trial.io.pump(&mut trial.graph)?;
@@ -751,19 +899,24 @@ fn study(trial: &mut Trial<'_>, db: &mut Database, db_path: &Path, seed: u64, re
             && trial.io.distances.subscription_count(&trial.io.node) >= 1
             && trial.io.human.subscription_count(&trial.io.node) >= 1
             && trial.io.reports.publisher_count(&trial.io.node) >= 1;
-        if trial.io.node.clock_started() && trial.io.tool.is_some() && trial.io.heard_status && matched {
-            break;
+        if trial.io.node.clock_started() && trial.io.tool.is_some() && trial.io.q.is_some() && trial.io.heard_status && matched {
+            return Ok(());
         }
         if Instant::now() > deadline {
             bail!(
-                "graph not up after {} s (clock {}, /lwr/world {}, /motion/status {}, topics matched {matched})",
+                "graph not up after {} s (clock {}, /lwr/world {}, /joint_states {}, /motion/status {}, topics matched {matched})",
                 trial.args.startup_timeout,
                 trial.io.node.clock_started(),
                 trial.io.tool.is_some(),
+                trial.io.q.is_some(),
                 trial.io.heard_status
             );
         }
     }
+}
+
+/// Runs the executions (see the module docs).
+fn study(trial: &mut Trial<'_>, db: &mut Database, db_path: &Path, seed: u64, result: &mut RefineTrial) -> Result<()> {
     let sim0 = trial.io.now();
     let g = Vector3::from(GOAL);
     let g_new = Vector3::from(NEW_GOAL);
@@ -784,7 +937,7 @@ fn study(trial: &mut Trial<'_>, db: &mut Database, db_path: &Path, seed: u64, re
         changed_states: None,
     };
     // Execution 0: the learned primitive alone.
-    let (json, tracker, version) = model_of(db)?;
+    let (json, tracker, version) = model_of(db, None)?;
     let first = trial.execute(&json, &tracker, None)?;
     let reproduction = (first.end - g).norm();
     let threshold = reproduction.max(MIN_THRESHOLD_M);
@@ -796,11 +949,11 @@ fn study(trial: &mut Trial<'_>, db: &mut Database, db_path: &Path, seed: u64, re
     let mut index = 0;
     for round in 1..=trial.args.refinements {
         // With the person.
-        let (json, tracker, version) = model_of(db)?;
+        let (json, tracker, version) = model_of(db, None)?;
         // The person watched the robot's path from the pick point.
         let path: Vec<Vector3<f64>> = tracker.positions().iter().map(|p| p + (trial.pick - tracker.positions()[0])).collect();
         let guide = Guide::new(path, SAMPLE_S, T_CONTACT_S, g_new).context("the person's path")?;
-        let taught = trial.execute(&json, &tracker, Some(&guide))?;
+        let taught = trial.execute(&json, &tracker, Some(&guide as &dyn Person))?;
         index += 1;
         let Some(contact) = taught.first_contact_s else {
             bail!("round {round}: lwr_sim reported no push of at least f_i = {} N", trial.io.insert_force);
@@ -817,7 +970,7 @@ fn study(trial: &mut Trial<'_>, db: &mut Database, db_path: &Path, seed: u64, re
         r.changed_states = Some(revision.changed_states);
         result.executions.push(r);
         // Alone, refined.
-        let (json, tracker, version) = model_of(db)?;
+        let (json, tracker, version) = model_of(db, None)?;
         let alone = trial.execute(&json, &tracker, None)?;
         index += 1;
         result.executions.push(row(index, version, false, &alone, &reference, n_before, tracker.duration_s()));
