@@ -105,6 +105,11 @@ pub const JOINT_STATES: Topic<JointState> =
     Topic::with_reader("/joint_states", Delivery::DEFAULT, Delivery::BestEffort { depth: 100 });
 /// Joint velocity command (rad/s) from `ds_controller` to `lwr_sim`.
 pub const JOINT_VELOCITY_COMMAND: Topic<Float64MultiArray> = Topic::new("/lwr/joint_velocity_command", Delivery::DEFAULT);
+/// Task transition control while a push is blended in (thesis Sec. 4.1.2, Fig. 4.7), from
+/// `ds_controller` at most every 10 ms of node time: `[w1, w2, w3, f]`, the barycentric weights
+/// of T¹ = T_ee, T² = [T_ee, T_ic], T³ = [T_ic, T_ee] and the push's norm (N); one `[1, 0, 0, 0]`
+/// when the blend is back at T¹.
+pub const TTC_WEIGHTS: Topic<Float64MultiArray> = Topic::new("/ds_controller/ttc", Delivery::DEFAULT);
 /// `open` / `close` for the gripper.
 pub const GRIPPER_COMMAND: Topic<RosString> = Topic::new("/lwr/gripper_command", Delivery::DEFAULT);
 /// Pushes on the arm by a person or a test (base frame, N / N·m), in.

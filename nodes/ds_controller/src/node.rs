@@ -484,6 +484,8 @@ pub struct Outputs {
     pub velocity: Option<JointVector>,
     /// `/motion/status` messages to publish, in order.
     pub statuses: Vec<MotionStatus>,
+    /// `/ds_controller/ttc` to publish: weights (T¹, T², T³) and the push (N).
+    pub ttc: Option<[f64; 4]>,
     /// Warnings about inputs (the loop rate-limits them by kind).
     pub warnings: Vec<Warning>,
     /// Notes worth an info log line (a command accepted, a status change).
@@ -497,6 +499,7 @@ impl Outputs {
         self.model = None;
         self.velocity = None;
         self.statuses.clear();
+        self.ttc = None;
         self.warnings.clear();
         self.notes.clear();
     }
@@ -513,6 +516,8 @@ pub struct DsNode {
     human: CautiousHuman,
     status: StatusTracker,
     rt: RtInputs,
+    /// Node time `/ds_controller/ttc` was last published while blending; `None` at T¹.
+    ttc_published: Option<f64>,
 }
 
 impl DsNode {
@@ -525,6 +530,7 @@ impl DsNode {
             human: CautiousHuman::new(params.controller.stale_after_s, params.controller.future_tolerance_s),
             status: StatusTracker::new(params.status_rate_hz),
             rt: RtInputs::default(),
+            ttc_published: None,
         }
     }
 
@@ -705,6 +711,19 @@ impl DsNode {
         if !o.waiting_for_joints {
             out.velocity = Some(o.qdot);
         }
+        // The TTC blend every 10 ms while it lasts, and once when it is back at T¹.
+        let ([w1, w2, w3], force) = o.ttc;
+        match self.ttc_published {
+            _ if w1 < 1.0 && self.ttc_published.is_none_or(|t| now - t >= 0.01 || now < t) => {
+                self.ttc_published = Some(now);
+                out.ttc = Some([w1, w2, w3, force]);
+            }
+            Some(_) if w1 >= 1.0 => {
+                self.ttc_published = None;
+                out.ttc = Some([1.0, 0.0, 0.0, 0.0]);
+            }
+            _ => {}
+        }
         if let Some((s, changed)) = self.status.on_output(o, &self.adapter, now) {
             if changed {
                 out.notes.push(format!("status: command {} state {} {}", s.command_id, s.state, s.reason));
@@ -736,8 +755,32 @@ mod tests {
             waiting_for_joints: false,
             approach_limited: None,
             guided: None,
+            ttc: ([1.0, 0.0, 0.0], 0.0),
             wrench_ignored: None,
         }
+    }
+
+    #[test]
+    fn the_ttc_blend_is_published_every_10_ms_while_it_lasts_and_once_at_its_end() {
+        let model = RobotModel::from_urdf_file(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/robot/lwr4plus.urdf"),
+        )
+        .expect("URDF");
+        let mut node = DsNode::new(&model, &Params::default(), SceneObjects::new(Default::default(), 0.04, 0.2, "lwr_base_link"));
+        let mut sent = Vec::new();
+        for k in 0..40 {
+            let t = 1.0 + k as f64 * 0.001;
+            let blend = if (5..30).contains(&k) { ([0.5, 0.5, 0.0], 8.0) } else { ([1.0, 0.0, 0.0], 0.0) };
+            let mut o = Outputs::default();
+            node.on_step(&RtOutput { ttc: blend, ..out(t, 1, Status::Running) }, t, &mut o);
+            if let Some(v) = o.ttc {
+                sent.push((k, v));
+            }
+        }
+        let ks: Vec<usize> = sent.iter().map(|(k, _)| *k).collect();
+        assert_eq!(ks, vec![5, 15, 25, 30], "{sent:?}");
+        assert_eq!(sent[0].1, [0.5, 0.5, 0.0, 8.0]);
+        assert_eq!(sent[3].1, [1.0, 0.0, 0.0, 0.0]);
     }
 
     #[test]

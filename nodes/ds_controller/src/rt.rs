@@ -99,6 +99,9 @@ pub struct RtOutput {
     /// once the touch is over) and the stack with the largest weight (0 T_ee, 1 [T_ee, T_ic],
     /// 2 [T_ic, T_ee]).
     pub guided: Option<(Option<usize>, u8)>,
+    /// Task transition control's barycentric weights (T¹, T², T³) after the step and the push's
+    /// norm (N); `[1, 0, 0]` and 0 without a push.
+    pub ttc: ([f64; 3], f64),
     /// The step did not use the newest push, and why (a push that ended ages into
     /// [`WrenchIgnored::Stale`] with a positive age: the normal end of a touch).
     pub wrench_ignored: Option<WrenchIgnored>,
@@ -152,6 +155,7 @@ pub fn rt_step(
             waiting_for_joints: true,
             approach_limited: None,
             guided: None,
+            ttc: ([1.0, 0.0, 0.0], 0.0),
             wrench_ignored: None,
         };
     };
@@ -194,6 +198,7 @@ pub fn rt_step(
         waiting_for_joints: false,
         approach_limited: if out.diagnostics.safety.active { out.diagnostics.safety.link } else { None },
         guided,
+        ttc: (c.weights, c.force_n),
         wrench_ignored: out.diagnostics.contact.ignored,
     }
 }

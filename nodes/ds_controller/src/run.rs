@@ -43,6 +43,8 @@ pub trait Sink {
     fn velocity(&mut self, now: f64, qdot: &JointVector);
     /// Publishes a `/motion/status`.
     fn status(&mut self, now: f64, status: &MotionStatus);
+    /// Publishes `/ds_controller/ttc` (weights T¹, T², T³ and the push, N).
+    fn ttc(&mut self, _now: f64, _values: &[f64; 4]) {}
     /// A warning the loop logged (`logged`) or held back (its kind was logged within the
     /// warning period).
     fn warning(&mut self, _now: f64, _warning: &Warning, _logged: bool) {}
@@ -91,6 +93,9 @@ fn deliver<K: Sink>(node: &mut DsNode, out: &mut Outputs, now: f64, sink: &mut K
     for s in &out.statuses {
         sink.status(now, s);
     }
+    if let Some(v) = &out.ttc {
+        sink.ttc(now, v);
+    }
     for w in &out.warnings {
         let logged = warnings.warn(now, w);
         sink.warning(now, w, logged);
@@ -125,6 +130,7 @@ pub fn run(node: RosNode, model: RobotModel, params: &Params, options: &RunOptio
     let mut dds = DdsSource::new(node, dds_check)?;
     let vel_pub = dds.node().advertise(&topics::JOINT_VELOCITY_COMMAND)?;
     let status_pub = dds.node().advertise(&topics::MOTION_STATUS)?;
+    let ttc_pub = dds.node().advertise(&topics::TTC_WEIGHTS)?;
     dds.add(&topics::JOINT_STATES, |m| Dds::In(Input::JointState(m)))?;
     // Object poses before the distances they classify (the source takes subscriptions in turn).
     dds.add(&topics::WORLD, |m| Dds::In(Input::World(m)))?;
@@ -201,6 +207,7 @@ pub fn run(node: RosNode, model: RobotModel, params: &Params, options: &RunOptio
         trash: &trash_rx,
         velocity: &vel_pub,
         status: &status_pub,
+        ttc: &ttc_pub,
         failures: Warnings::new(params.warning_period_s),
     };
     let mut warnings = Warnings::new(params.warning_period_s);
@@ -294,6 +301,7 @@ struct DdsSink<'a> {
     trash: &'a Receiver<Box<Learned>>,
     velocity: &'a Publisher<Float64MultiArray>,
     status: &'a Publisher<MotionStatus>,
+    ttc: &'a Publisher<Float64MultiArray>,
     /// Publication failures, at most one warning per topic per period.
     failures: Warnings,
 }
@@ -329,6 +337,12 @@ impl Sink for DdsSink<'_> {
     fn status(&mut self, _now: f64, status: &MotionStatus) {
         if let Err(e) = self.status.publish(status.clone()) {
             self.failed(topics::MOTION_STATUS.name, &e);
+        }
+    }
+
+    fn ttc(&mut self, _now: f64, values: &[f64; 4]) {
+        if let Err(e) = self.ttc.publish(Float64MultiArray::from_vec(values.to_vec())) {
+            self.failed(topics::TTC_WEIGHTS.name, &e);
         }
     }
 }

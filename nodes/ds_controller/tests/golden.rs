@@ -116,6 +116,7 @@ fn step(t: f64, id: u32, status: Status) -> RtOutput {
         waiting_for_joints: false,
         approach_limited: None,
         guided: None,
+        ttc: ([1.0, 0.0, 0.0], 0.0),
         wrench_ignored: None,
     }
 }

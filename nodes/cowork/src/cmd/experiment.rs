@@ -53,7 +53,8 @@ pub struct ExperimentArgs {
     /// experiments: DIR/<experiment>-<seed>.mcap).
     #[arg(long)]
     pub record: Option<PathBuf>,
-    /// Write a report (index.html + PNG plots per trial) into DIR (HRI experiments only).
+    /// Write a report (index.html + PNG plots per trial) into DIR (HRI experiments and
+    /// refine-elbow).
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Simulated seconds per wall-clock second.

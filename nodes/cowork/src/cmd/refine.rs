@@ -38,6 +38,7 @@ use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion, Vector3 as RosVector3, Wrench, WrenchStamped};
 use cowork_msgs::msg::{HumanState, LinkDistance, LinkDistances, MotionCommand, MotionStatus, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
+use cowork_msgs::std_msgs::Float64MultiArray;
 use cowork_msgs::std_msgs::Header;
 use cowork_msgs::topics::{self, Delivery};
 use cowork_people::guide::Guide;
@@ -399,6 +400,7 @@ pub(super) struct Io {
     pub(super) node: RosNode,
     world: Subscription<WorldState>,
     joints: Subscription<JointState>,
+    ttc: Subscription<Float64MultiArray>,
     status: Subscription<MotionStatus>,
     reports: Subscription<WrenchStamped>,
     motion: Publisher<MotionCommand>,
@@ -415,6 +417,8 @@ pub(super) struct Io {
     joint_samples: Vec<(f64, JointVector)>,
     /// ds_controller's distinct "guided: …" status reasons while recording (which TTC stacks).
     guided: Vec<String>,
+    /// `/ds_controller/ttc` while recording: arrival (s) and [w1, w2, w3, push N].
+    ttc_samples: Vec<(f64, [f64; 4])>,
     pub(super) insert_force: f64,
     last_feed: f64,
     /// Newest tool pose (stamp s, position m, orientation).
@@ -479,6 +483,14 @@ impl Io {
                 self.joint_samples.push((t, q));
             }
             self.q = Some((t, q));
+        }
+        while let Some(m) = self.ttc.take() {
+            if self.recording
+                && let [w1, w2, w3, f] = m.data[..]
+            {
+                let t = self.now();
+                self.ttc_samples.push((t, [w1, w2, w3, f]));
+            }
         }
         while let Some(s) = self.status.take() {
             self.heard_status = true;
@@ -562,6 +574,8 @@ pub(super) struct Run {
     pub(super) start_delay_s: Option<f64>,
     /// ds_controller's distinct "guided: …" reasons during the execution (the TTC stacks).
     pub(super) guided: Vec<String>,
+    /// ds_controller's TTC blend during the execution: s after the command, [w1, w2, w3, push N].
+    pub(super) ttc: Vec<(f64, [f64; 4])>,
 }
 
 /// Linear interpolation of stamped samples on the grid `t0 + k·dt`, k < n (clamped at the ends).
@@ -674,6 +688,7 @@ impl Trial<'_> {
         }
         self.io.joint_samples.clear();
         self.io.guided.clear();
+        self.io.ttc_samples.clear();
         if let Some(q) = self.io.q {
             self.io.joint_samples.push(q);
         }
@@ -739,6 +754,7 @@ impl Trial<'_> {
             path: resample(&samples, t_cmd, SAMPLE_S, n),
             joints: hold_last(&joint_samples, t_cmd, SAMPLE_S, n),
             guided: std::mem::take(&mut self.io.guided),
+            ttc: std::mem::take(&mut self.io.ttc_samples).into_iter().map(|(t, v)| (t - t_cmd, v)).collect(),
             end,
             first_contact_s: self.io.first_report.map(|t| t - t_cmd),
             max_push_n: self.io.max_report,
@@ -825,6 +841,7 @@ pub(super) fn with_graph<R>(
     let io = Io {
         world: node.subscribe(&topics::WORLD)?,
         joints: node.subscribe(&topics::JOINT_STATES)?,
+        ttc: node.subscribe(&topics::TTC_WEIGHTS)?,
         status: node.subscribe(&topics::MOTION_STATUS)?,
         reports: node.subscribe(&topics::LWR_EXTERNAL_WRENCH.reading(Delivery::BestEffort { depth: 2000 }))?,
         motion: node.advertise(&topics::MOTION_COMMAND)?,
@@ -838,6 +855,7 @@ pub(super) fn with_graph<R>(
         q: None,
         joint_samples: Vec::new(),
         guided: Vec::new(),
+        ttc_samples: Vec::new(),
         insert_force,
         last_feed: f64::NEG_INFINITY,
         tool: None,

@@ -31,6 +31,7 @@ use cowork_motion::Demonstration;
 use cowork_motion::hmm::HmmPrimitive;
 use cowork_people::guide::ElbowGuide;
 use cowork_robot::{Jacobian, JointVector, LinkPoses, PositionJacobian, RobotModel, damped_pseudo_inverse, null_space_projector};
+use cowork_experiment::report::{Line, RGBColor, plot_lines};
 use cowork_ros::shutdown;
 use nalgebra::{Point3, Vector3};
 use serde::Serialize;
@@ -185,6 +186,11 @@ pub struct ElbowRow {
     pub changed_states: Option<Vec<usize>>,
     /// The elbow's distance to the obstacle's surface every 0.1 s from the command (mm).
     pub clearance_series_mm: Vec<f64>,
+    /// The tool's distance from execution 0's at equal times, every 0.1 s (mm).
+    pub tool_deviation_series_mm: Vec<f64>,
+    /// ds_controller's TTC blend (`/ds_controller/ttc`) about every 50 ms while a push was
+    /// blended in: [s after the command, w1, w2, w3, push N].
+    pub ttc_series: Vec<[f64; 5]>,
 }
 
 /// One trial.
@@ -277,25 +283,100 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
         let t = run_trial(args, &model, seed, k, ttc.insert_force, ttc.switch_force)?;
         print_trial(&t);
         trials.push(t);
+        if let Some(dir) = &args.report {
+            write_report(dir, &trials, ttc.insert_force)?;
+        }
         if let Some(path) = &args.json {
             write_json(path, &ElbowRun { experiment: args.name.clone(), summary: ElbowSummary::of(&trials), trials: trials.clone() })?;
         }
     }
     println!("{}", serde_json::to_string_pretty(&ElbowSummary::of(&trials))?);
+    if let Some(dir) = &args.report {
+        println!("report: {}", dir.join("index.html").display());
+    }
     Ok(())
 }
 
+const PALETTE: [(u8, u8, u8); 7] =
+    [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189), (140, 86, 75), (227, 119, 194)];
+
+fn color(k: usize) -> RGBColor {
+    let (r, g, b) = PALETTE[k % PALETTE.len()];
+    RGBColor(r, g, b)
+}
+
+/// The PNGs of one trial in `dir` (Fig. 4.6–4.7): the TTC weights and the push of the first
+/// guided execution, the tool's deviation from execution 0 and the elbow's clearance per
+/// execution. Returns the file names.
+fn plot_trial(dir: &std::path::Path, t: &ElbowTrial, insert_force: f64) -> Result<Vec<String>> {
+    let stem = format!("refine-elbow-{}-fs{}", t.seed, t.switch_force_n);
+    let mut files = Vec::new();
+    let mut file = |name: &str| {
+        let f = format!("{stem}-{name}.png");
+        files.push(f.clone());
+        dir.join(f)
+    };
+    let series = |v: &[f64]| v.iter().enumerate().map(|(k, &y)| (k as f64 * 0.1, y)).collect::<Vec<_>>();
+    if let Some(e) = t.executions.iter().find(|e| e.pushed) {
+        let w = |i: usize| e.ttc_series.iter().map(|s| (s[0], s[i])).collect::<Vec<_>>();
+        let title = format!("TTC weights, execution {} (f_s = {} N)", e.index, t.switch_force_n);
+        let lines = [
+            Line { name: "w1: T_ee", points: w(1), color: color(0) },
+            Line { name: "w2: [T_ee, T_ic]", points: w(2), color: color(1) },
+            Line { name: "w3: [T_ic, T_ee]", points: w(3), color: color(2) },
+        ];
+        plot_lines(&file("ttc"), &title, "weight", &lines, &[], Some(0.0))?;
+        let push = [Line { name: "push on lwr_link_3", points: w(4), color: color(3) }];
+        let marks = [(insert_force, "f_i"), (t.switch_force_n, "f_s")];
+        plot_lines(&file("push"), &format!("The person's push, execution {}", e.index), "N", &push, &marks, Some(0.0))?;
+    }
+    let names: Vec<String> =
+        t.executions.iter().map(|e| format!("exec {} (v{}{})", e.index, e.version, if e.pushed { ", pushed" } else { "" })).collect();
+    let lines: Vec<Line<'_>> =
+        t.executions.iter().enumerate().map(|(k, e)| Line { name: &names[k], points: series(&e.tool_deviation_series_mm), color: color(k) }).collect();
+    plot_lines(&file("tool"), "Tool: distance from execution 0 at equal times", "mm", &lines, &[(TOOL_TOLERANCE_M * 1e3, "3 mm")], Some(0.0))?;
+    let lines: Vec<Line<'_>> =
+        t.executions.iter().enumerate().map(|(k, e)| Line { name: &names[k], points: series(&e.clearance_series_mm), color: color(k) }).collect();
+    plot_lines(&file("clearance"), "Elbow: distance to the obstacle's surface", "mm", &lines, &[(CLEARANCE_GOAL_M * 1e3, "goal"), (0.0, "contact")], None)?;
+    Ok(files)
+}
+
+/// `dir`/index.html with every trial's table and plots so far.
+fn write_report(dir: &std::path::Path, trials: &[ElbowTrial], insert_force: f64) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let mut html = String::from(
+        "<!doctype html><meta charset=\"utf-8\"><title>refine-elbow</title><h1>refine-elbow: elbow refinement (thesis Sec. 4.1.3, Fig. 4.5-4.7)</h1>\n",
+    );
+    for t in trials {
+        let files = plot_trial(dir, t, insert_force)?;
+        let text = trial_text(t).replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+        html += &format!("<h2>seed {} (f_s = {} N)</h2><pre>{text}</pre>\n", t.seed, t.switch_force_n);
+        for f in files {
+            html += &format!("<p><img src=\"{f}\" alt=\"{f}\"></p>\n");
+        }
+    }
+    let path = dir.join("index.html");
+    std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))
+}
+
 fn print_trial(t: &ElbowTrial) {
-    println!(
-        "refine-elbow seed {} (f_s = {} N): {}{}",
+    print!("{}", trial_text(t));
+}
+
+/// The terminal table of a trial.
+fn trial_text(t: &ElbowTrial) -> String {
+    use std::fmt::Write as _;
+    let mut s = format!(
+        "refine-elbow seed {} (f_s = {} N): {}{}\n",
         t.seed,
         t.switch_force_n,
         if t.success { "success" } else { "FAILED" },
         if t.reason.is_empty() { String::new() } else { format!(": {}", t.reason) }
     );
-    println!("  exec  version  pushed  contact(s)  max push(N)  elbow clearance (mm)  tool: path offset / deviation (mm)  elbow dev. before contact (mm)  TTC");
+    s += "  exec  version  pushed  contact(s)  max push(N)  elbow clearance (mm)  tool: path offset / deviation (mm)  elbow dev. before contact (mm)  TTC\n";
     for e in &t.executions {
-        println!(
+        let _ = writeln!(
+            s,
             "  {:>4}  {:>7}  {:>6}  {:>10}  {:>11.1}  {:>20.1}  {:>17.2} / {:>9.2}  {:>30.1}  {}",
             e.index,
             e.version,
@@ -313,13 +394,15 @@ fn print_trial(t: &ElbowTrial) {
         Some(n) => format!("the elbow cleared the obstacle on its own after {n} refined execution(s)"),
         None => "the elbow did not clear the obstacle on its own".to_owned(),
     };
-    println!(
+    let _ = writeln!(
+        s,
         "  {reached} (goal: >= {:.0} mm with the tool within {:.0} mm of its path; thesis: {THESIS_EXECUTIONS}); {:.1} s simulated, {:.0} s wall",
         CLEARANCE_GOAL_M * 1e3,
         TOOL_TOLERANCE_M * 1e3,
         t.duration_s,
         t.wall_s
     );
+    s
 }
 
 fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, insert_force: f64, switch_force: f64) -> Result<ElbowTrial> {
@@ -348,6 +431,21 @@ fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, inser
     }
     result.wall_s = wall0.elapsed().as_secs_f64();
     Ok(result)
+}
+
+fn round1(v: f64) -> f64 {
+    (v * 10.0).round() / 10.0
+}
+
+/// The samples of `ttc` at least `dt` s apart (and the last).
+fn decimate(ttc: &[(f64, [f64; 4])], dt: f64) -> Vec<[f64; 5]> {
+    let mut out: Vec<[f64; 5]> = Vec::new();
+    for (i, &(t, [a, b, c, f])) in ttc.iter().enumerate() {
+        if out.last().is_none_or(|l| t - l[0] >= dt) || i + 1 == ttc.len() {
+            out.push([t, a, b, c, f]);
+        }
+    }
+    out
 }
 
 /// Elbow positions (m) of a run's joint samples.
@@ -403,7 +501,9 @@ fn study(
         elbow_deviation_before_contact_mm: max_deviation(elbows, &elbow0, n_before) * 1e3,
         kept_states: None,
         changed_states: None,
-        clearance_series_mm: elbows.iter().step_by(10).map(|p| (clearance_at(p) * 1e3 * 10.0).round() / 10.0).collect(),
+        clearance_series_mm: elbows.iter().step_by(10).map(|p| round1(clearance_at(p) * 1e3)).collect(),
+        tool_deviation_series_mm: r.path.iter().zip(&first.path).step_by(10).map(|(a, b)| round1((a - b).norm() * 1e3)).collect(),
+        ttc_series: decimate(&r.ttc, 0.05),
     };
     result.executions.push(row(0, version(db), false, &first, &elbow0, n_before));
     result.duration_s = first.sim_end - sim0;

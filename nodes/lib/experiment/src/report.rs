@@ -6,6 +6,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use plotters::prelude::*;
+pub use plotters::style::RGBColor;
 
 use crate::error::{Error, Result};
 use crate::judge::{Mode, Series, THESIS_MIN_DISTANCE_M};
@@ -65,10 +66,14 @@ fn ensure_font() -> Result<()> {
 }
 
 /// A line of (t, y) samples with its legend.
-struct Line<'a> {
-    name: &'a str,
-    points: Vec<(f64, f64)>,
-    color: RGBColor,
+#[derive(Debug, Clone)]
+pub struct Line<'a> {
+    /// Legend.
+    pub name: &'a str,
+    /// (time s, value) samples.
+    pub points: Vec<(f64, f64)>,
+    /// Colour.
+    pub color: RGBColor,
 }
 
 fn range(lines: &[Line<'_>], floor: Option<f64>) -> ((f64, f64), (f64, f64)) {
@@ -104,8 +109,9 @@ fn range(lines: &[Line<'_>], floor: Option<f64>) -> ((f64, f64), (f64, f64)) {
     ((t0, t1), (y0 - pad, y1 + pad))
 }
 
-/// Draws `lines` (and horizontal `marks` with labels) over simulated time into `path`.
-fn plot(
+/// Draws `lines` (and horizontal `marks` with labels) over simulated time into the PNG `path`
+/// (900 × 320), the y axis from `y_floor` (or the first mark, or the data) up.
+pub fn plot_lines(
     path: &Path,
     title: &str,
     y_label: &str,
@@ -113,6 +119,7 @@ fn plot(
     marks: &[(f64, &str)],
     y_floor: Option<f64>,
 ) -> Result<()> {
+    ensure_font()?;
     let root = BitMapBackend::new(path, (900, 320)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| report_err(path, e))?;
     let ((t0, t1), (y0, y1)) = range(lines, y_floor.or(marks.first().map(|m| m.0)));
@@ -197,7 +204,7 @@ pub fn plot_trial(dir: &Path, stem: &str, s: &Series) -> Result<Vec<String>> {
         files.push(f.clone());
         dir.join(f)
     };
-    plot(
+    plot_lines(
         &out("distance"),
         "Robot-person minimum distance",
         "distance (m)",
@@ -224,7 +231,7 @@ pub fn plot_trial(dir: &Path, stem: &str, s: &Series) -> Result<Vec<String>> {
         &[(THESIS_MIN_DISTANCE_M, "6.7 cm (thesis minimum with fDED)")],
         Some(0.0),
     )?;
-    plot(
+    plot_lines(
         &out("speed"),
         "Tool speed and alpha_h",
         "m/s",
@@ -270,7 +277,7 @@ pub fn plot_trial(dir: &Path, stem: &str, s: &Series) -> Result<Vec<String>> {
             color: palette[k % palette.len()],
         });
     }
-    plot(
+    plot_lines(
         &out("mode"),
         "Human observer mode (0 nobody, 1 far, 2 interaction, 3 stopped); gestures: spikes",
         "mode",
@@ -278,7 +285,7 @@ pub fn plot_trial(dir: &Path, stem: &str, s: &Series) -> Result<Vec<String>> {
         &[],
         Some(0.0),
     )?;
-    plot(
+    plot_lines(
         &out("processing"),
         "Distance node processing time per depth frame",
         "ms",
@@ -294,7 +301,7 @@ pub fn plot_trial(dir: &Path, stem: &str, s: &Series) -> Result<Vec<String>> {
         &[],
         Some(0.0),
     )?;
-    plot(
+    plot_lines(
         &out("qdot"),
         "Joint velocity norm: commanded vs executed",
         "rad/s",
