@@ -36,17 +36,23 @@ pub enum Learned {
 }
 
 /// An HMM end-effector path and, optionally, an HMM null-space path (thesis Sec. 4.1.1, Fig.
-/// 4.1): the origin of `link` follows the second path on the first one's clock, translated to
-/// where that origin is at the first step, in the end-effector task's null space.
+/// 4.1): the origin of `link` follows the second path on the first one's clock, in the
+/// end-effector task's null space. The null-space path starts where that origin is and the
+/// translation fades with [`NULL_SPACE_SETTLE_S`]: the elbow then runs where it was taught (an
+/// obstacle it was taught to avoid stays where it is, wherever the previous motion left the
+/// elbow), without a jump at the start.
 #[derive(Debug)]
 pub struct HmmField {
     /// The end-effector (tool) path.
     pub end_effector: PathTracker,
     /// The null-space path: the link (model index) and its path.
     pub null_space: Option<(usize, PathTracker)>,
-    /// The null-space path was translated to the link's first position of this motion.
-    started: bool,
+    /// Translation of the null-space path at its start (m), once the first step set it.
+    start_offset: Option<Vector3<f64>>,
 }
+
+/// Time constant (s of path time) with which the null-space path's start translation fades.
+pub const NULL_SPACE_SETTLE_S: f64 = 0.5;
 
 /// Sampling of an HMM's generated path (s).
 pub const HMM_SAMPLE_S: f64 = 0.01;
@@ -217,7 +223,7 @@ pub fn decode(kind: &str, parameters_json: &str, files: &ModelFiles, links: &[St
             }
             Learned::Dmp(DmpField { model: m, x0: Vector3::zeros(), v: Vector3::zeros(), s: 1.0 })
         }
-        Model::Hmm(m) => Learned::Hmm(HmmField { end_effector: hmm_path(&m)?, null_space, started: false }),
+        Model::Hmm(m) => Learned::Hmm(HmmField { end_effector: hmm_path(&m)?, null_space, start_offset: None }),
     })
 }
 
@@ -231,7 +237,7 @@ impl LearnedField for Learned {
             Learned::Gmr(_) => {}
             Learned::Hmm(h) => {
                 h.end_effector.reset(x0, goal);
-                h.started = false;
+                h.start_offset = None;
             }
             Learned::Cgmr(c) => {
                 c.omega = 0.0;
@@ -301,11 +307,10 @@ impl LearnedField for Learned {
     fn null_space_velocity(&mut self, x: &Vector3<f64>) -> Vector3<f64> {
         let Learned::Hmm(h) = self else { return Vector3::zeros() };
         let tau = h.end_effector.tau();
-        let Some((_, path)) = &mut h.null_space else { return Vector3::zeros() };
-        if !h.started {
-            h.started = true;
-            path.reset(x, x);
-        }
-        path.velocity_at(tau, x)
+        let Some((_, path)) = &h.null_space else { return Vector3::zeros() };
+        let start = *h.start_offset.get_or_insert_with(|| x - path.positions()[0]);
+        // offset(τ) = offset₀ e^{−τ/T}: its rate −offset/T is part of the reference velocity.
+        let offset = start * (-tau / NULL_SPACE_SETTLE_S).exp();
+        path.velocity_with_offset(tau, x, &offset) - offset / NULL_SPACE_SETTLE_S
     }
 }

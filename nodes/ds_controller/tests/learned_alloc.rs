@@ -1,6 +1,6 @@
-//! The learned primitives' real-time path allocates nothing: 4 × 2000 controller steps with a
-//! GMR, C-GMR, DMP and HMM field (models decoded beforehand, as the ROS side does; the HMM's
-//! path is generated there).
+//! The learned primitives' real-time path allocates nothing: 5 × 2000 controller steps with a
+//! GMR, C-GMR, DMP and HMM field, and an HMM with a null-space (elbow) HMM (models decoded
+//! beforehand, as the ROS side does; the HMMs' paths are generated there).
 
 use std::path::PathBuf;
 
@@ -60,6 +60,27 @@ fn learned_steps_allocate_nothing() {
         let (cmd, field) = adapter.command(&msg).expect("accepted");
         runs.push((cmd, field.expect("model")));
     }
+    // The HMM again, with an elbow HMM on lwr_link_4 (a path 3 cm off the elbow's start).
+    let elbow = model.link_pose(&q, model.link_index("lwr_link_4").expect("elbow")).translation.vector;
+    let elbow_demos: Vec<Demonstration> = (0..3)
+        .map(|i| {
+            let pos = t.iter().flat_map(|t| [elbow.x, elbow.y + 0.03 * t / 2.0 + 0.001 * i as f64, elbow.z]);
+            Demonstration::new(3, t.clone(), pos.collect(), None).expect("elbow demo")
+        })
+        .collect();
+    let mut v = serde_json::to_value(Model::fit(ModelKind::Hmm, &demos, &opts).expect("fit")).expect("json");
+    v["null_space"] = serde_json::json!({"link": "lwr_link_4", "model": Model::fit(ModelKind::Hmm, &elbow_demos, &opts).expect("elbow fit")});
+    let msg = MotionCommandMsg {
+        id: 5,
+        kind: MotionCommandMsg::KIND_HMM,
+        parameters_json: v.to_string(),
+        goal: Pose { position: Point { x: x0.x, y: x0.y, z: x0.z }, orientation: Quaternion { w: 1.0, ..Default::default() } },
+        hold_orientation: true,
+        ..Default::default()
+    };
+    let (cmd, field) = adapter.command(&msg).expect("accepted");
+    assert!(field.as_ref().is_some_and(|f| f.null_space_link().is_some()));
+    runs.push((cmd, field.expect("model")));
     let mut ctl = DsController::new(model.clone(), Params::default().controller).expect("controller");
     let mut out = ControlOutput::default();
     let before = cowork_testkit::allocations();
@@ -80,6 +101,6 @@ fn learned_steps_allocate_nothing() {
         }
     }
     let allocated = cowork_testkit::allocations() - before;
-    assert_eq!(allocated, 0, "{allocated} allocations in 8000 learned steps");
+    assert_eq!(allocated, 0, "{allocated} allocations in 10000 learned steps");
     assert!(out.diagnostics.goal_error_m.is_finite());
 }

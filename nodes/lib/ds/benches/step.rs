@@ -4,7 +4,7 @@
 use cowork_ds::primitive::ConstantSpeed;
 use cowork_ds::{
     ControlInput, ControlOutput, ControllerConfig, Distances, DsController, HumanInput, HumanState,
-    LinkDistance, MotionCommand, Primitive,
+    LearnedField, LinkDistance, MotionCommand, Primitive,
 };
 use cowork_robot::{JointVector, RobotModel};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -101,6 +101,47 @@ fn bench(c: &mut Criterion) {
     });
 }
 
+/// A learned field with a null-space (elbow) primitive: a constant tool velocity and a constant
+/// velocity asked of the elbow (`lwr_link_4`'s origin).
+#[derive(Debug)]
+struct WithElbow {
+    elbow: usize,
+}
+
+impl LearnedField for WithElbow {
+    fn reset(&mut self, _x0: &Vector3<f64>, _goal: &Vector3<f64>) {}
+
+    fn velocity(&mut self, _x: &Vector3<f64>, _goal: &Vector3<f64>, _dt: f64) -> Vector3<f64> {
+        Vector3::new(0.05, 0.02, 0.0)
+    }
+
+    fn null_space_link(&self) -> Option<usize> {
+        Some(self.elbow)
+    }
+
+    fn null_space_velocity(&mut self, _x: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(0.0, 0.04, 0.01)
+    }
+}
+
+/// `ds_step_obstacles`'s inputs with a learned primitive that carries an elbow path (Sec.
+/// 4.1.1): the null-space point task instead of the posture task.
+fn bench_null_space(c: &mut Criterion) {
+    let urdf = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../config/robot/lwr4plus.urdf");
+    let model = RobotModel::from_urdf_file(urdf).expect("LWR URDF loads");
+    let mut input = input(&model);
+    input.command.primitive = Primitive::Learned;
+    let mut field = WithElbow { elbow: model.link_index("lwr_link_4").expect("elbow") };
+    let mut ctl = DsController::new(model, ControllerConfig::default()).expect("default config");
+    let mut out = ControlOutput::default();
+    c.bench_function("ds_step_obstacles_null_space_primitive", |b| {
+        b.iter(|| {
+            ctl.step_with_field(black_box(&input), Some(&mut field), &mut out).expect("valid input");
+            black_box(&out);
+        })
+    });
+}
+
 /// One task transition control step (Sec. 4.1.2) with a 20 N push on the elbow: the three
 /// stacks' task-priority IK and the weight update, to compare with the DS step above.
 fn bench_ttc(c: &mut Criterion) {
@@ -129,5 +170,5 @@ fn bench_ttc(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, bench, bench_ttc);
+criterion_group!(benches, bench, bench_ttc, bench_null_space);
 criterion_main!(benches);

@@ -114,8 +114,14 @@ impl PathTracker {
     /// ẋ = v_ref(τ) + k_p (p_ref(τ) + offset − x). A path run on another path's clock (a
     /// null-space primitive on the end-effector path's τ) uses this.
     pub fn velocity_at(&self, tau: f64, x: &Vector3<f64>) -> Vector3<f64> {
+        self.velocity_with_offset(tau, x, &self.offset)
+    }
+
+    /// [`velocity_at`](Self::velocity_at) with the path translated by `offset` (m) instead of
+    /// the one [`reset`](LearnedField::reset) set.
+    pub fn velocity_with_offset(&self, tau: f64, x: &Vector3<f64>, offset: &Vector3<f64>) -> Vector3<f64> {
         let (p, v) = self.at(tau);
-        v + (p + self.offset - x) * self.gain
+        v + (p + offset - x) * self.gain
     }
 }
 
