@@ -642,16 +642,24 @@ pub(super) struct Trial<'a> {
     pub(super) pick: Vector3<f64>,
     down: UnitQuaternion<f64>,
     pub(super) args: &'a ExperimentArgs,
+    /// At the pick point also wait (up to [`SETTLE_LINK_MAX_S`]) until this link's origin is
+    /// within 3 mm of this position (m): the posture task brings the elbow back where the first
+    /// execution started, so every execution starts from the same arm configuration.
+    pub(super) settle_link: Option<(usize, Vector3<f64>)>,
 }
+
+/// Longest wait at the pick point for [`Trial::settle_link`] (s, simulated).
+pub const SETTLE_LINK_MAX_S: f64 = 8.0;
 
 impl Trial<'_> {
     /// Back to the pick point with the tool pointing down (linear DS, gain 2/s), until the
-    /// tool has been within 0.5 mm of it for 0.3 s.
+    /// tool has been within 0.5 mm of it for 0.3 s (and [`Trial::settle_link`] is met).
     pub(super) fn go_to_pick(&mut self) -> Result<()> {
         self.next_id += 1;
         let id = self.next_id;
         self.io.command(id, MotionCommand::KIND_LINEAR, &self.pick, Some(&self.down), String::new(), Some(2.0))?;
-        let deadline = self.io.wall_limit(20.0);
+        let limit_s = 20.0 + if self.settle_link.is_some() { SETTLE_LINK_MAX_S } else { 0.0 };
+        let deadline = self.io.wall_limit(limit_s);
         let t0 = self.io.now();
         let mut since: Option<f64> = None;
         loop {
@@ -659,12 +667,16 @@ impl Trial<'_> {
             let (x, q) = self.io.tool()?;
             let close = (x - self.pick).norm() < 5e-4 && q.angle_to(&self.down) < 0.02;
             since = if close { since.or(Some(now)) } else { None };
-            if since.is_some_and(|s| now - s >= 0.3) {
+            let settled = match (self.settle_link, self.io.q) {
+                (Some((link, p)), Some((_, joints))) => (self.io.model.link_pose(&joints, link).translation.vector - p).norm() < 3e-3,
+                _ => true,
+            };
+            if since.is_some_and(|s| now - s >= 0.3 && (settled || now - s >= SETTLE_LINK_MAX_S)) {
                 return Ok(());
             }
-            if Instant::now() > deadline || now - t0 > 20.0 {
+            if Instant::now() > deadline || now - t0 > limit_s {
                 bail!(
-                    "the tool did not return to the pick point within 20 s: {:.1} mm away; ds_controller: {}",
+                    "the tool did not return to the pick point within {limit_s} s: {:.1} mm away; ds_controller: {}",
                     (x - self.pick).norm() * 1e3,
                     self.io.status_msg.as_ref().map_or("no /motion/status".into(), |s| format!("state {} {}", s.state, s.reason))
                 );
@@ -900,6 +912,7 @@ pub(super) fn with_graph<R>(
         pick: Vector3::from(PICK),
         down: UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(0.0, 0.0, 1.0, 0.0)),
         args,
+        settle_link: None,
     };
     let out = study(&mut trial, &mut db, &db_path);
     trial.graph.stop();

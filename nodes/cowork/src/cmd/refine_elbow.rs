@@ -1,26 +1,28 @@
 //! `cowork experiment refine-elbow` (thesis Sec. 4.1.3, Fig. 4.5–4.7): incremental kinesthetic
 //! refinement of a null-space (elbow) primitive in the graph.
 //!
-//! The graph and the pick-and-place are refine-goal's ([`super::refine`]): `lwr_sim` in execute
-//! mode and `ds_controller` with task transition control, on a private domain and the simulated
-//! clock; five synthetic demonstrations of the pick-and-place teach the end-effector HMM. The
-//! same demonstrations, as the arm would have moved under them (a kinematic IK from the arm's
-//! configuration at the pick point, tool orientation held), teach the elbow HMM (the origin of
-//! `lwr_link_4`, left-to-right, 7 states, 1 Gaussian, η = 0.7). Both travel in one
-//! `MotionCommand` (`KIND_HMM` with `null_space`): ds_controller runs the elbow path in the
-//! null space of the end-effector task.
+//! The graph is refine-goal's ([`super::refine`]): `lwr_sim` in execute mode and
+//! `ds_controller` with task transition control, on a private domain and the simulated clock.
+//! Five synthetic demonstrations of refine-goal's pick-and-place, at half its speed
+//! ([`DEMO_DURATIONS_S`]), teach the end-effector HMM. The same demonstrations, as the arm
+//! would have moved under them (a kinematic IK from the arm's configuration at the pick point,
+//! tool orientation held), teach the elbow HMM (the origin of `lwr_link_4`; left-to-right, 7
+//! states, 1 Gaussian, η = 0.7). Both travel in one `MotionCommand` (`KIND_HMM` with
+//! `null_space`): ds_controller runs the elbow path in the null space of the tool's pose.
 //!
-//! Execution 0 runs alone. An obstacle the robot does not see — a sphere, no camera runs, as in
+//! Execution 0 runs alone. An obstacle the robot does not see — a sphere; no camera runs, as in
 //! the thesis — is then placed on the elbow's path at [`T_OBSTACLE_S`], [`OBSTACLE_OFFSET_M`]
 //! behind it against the direction the elbow can move without moving the tool, so execution 0
-//! went through it. Per round the person ([`cowork_people::guide::ElbowGuide`]) presses the
-//! upper arm (`lwr_link_3`; the TTC's contact at its end is the elbow) from [`T_CONTACT_S`] on,
-//! with 5–12 N (between f_i and f_s: the guidance stays in the end-effector task's null space)
-//! until the elbow clears the obstacle by 9 cm; the elbow path the arm took (forward kinematics
-//! of `/joint_states`, never what was commanded) refines the elbow HMM after the first contact
-//! lwr_sim reported, saved with its history; then an execution alone. The trial succeeds when an
-//! execution alone keeps the elbow [`CLEARANCE_GOAL_M`] off the obstacle while the tool's path
-//! stays within [`TOOL_TOLERANCE_M`] of execution 0's (thesis: 3 executions).
+//! went through it. Per round the person ([`cowork_people::guide::ElbowGuide`]) guides the
+//! upper arm (`lwr_link_3`; the TTC's contact at its end is the elbow) from [`T_CONTACT_S`] on
+//! along execution 0's elbow path bent [`BEND_M`] away from the obstacle, with at most 14 N
+//! (between f_i and f_s: the guidance stays in the end-effector task's null space); the elbow
+//! path the arm took (forward kinematics of `/joint_states`, never what was commanded) refines
+//! the elbow HMM after the first contact lwr_sim reported, saved with its history; then an
+//! execution alone. The trial succeeds when an execution alone keeps the elbow
+//! [`CLEARANCE_GOAL_M`] off the obstacle while the tool's path stays within
+//! [`TOOL_TOLERANCE_M`] of execution 0's (thesis: 3 executions). `--switch-force` runs the same
+//! with another f_s (Fig. 4.7: 5 N puts the guidance first at once, 30 N never).
 
 use std::time::Instant;
 
@@ -479,9 +481,16 @@ fn study(
     let version = |db: &Database| db.hmm(ELBOW_ID).map_or(0, |e| e.version);
     let first = trial.execute(&json, &tracker, None)?;
     let elbow0 = elbow_path(&model, elbow, &first);
+    // Every later execution starts with the elbow where this one did.
+    trial.settle_link = Some((elbow, elbow0[0]));
     let k_o = ((T_OBSTACLE_S / SAMPLE_S) as usize).min(elbow0.len() - 1);
+    let k_c = ((T_CONTACT_S / SAMPLE_S) as usize).min(k_o);
     let u = swivel_direction(&model, &first.joints[k_o], elbow)
         .context("execution 0's arm has no elbow motion at the obstacle's time (singular)")?;
+    // The obstacle stands on the side the elbow swivels towards between the contact and the
+    // obstacle; the person bends it back the other way. The guidance sets the elbow's absolute
+    // swivel speed (ẋ = c f), so bending against the elbow's own swivel takes the least force.
+    let u = if u.dot(&(elbow0[k_o] - elbow0[k_c])) > 0.0 { -u } else { u };
     let centre = elbow0[k_o] - u * OBSTACLE_OFFSET_M;
     result.obstacle_m = [centre.x, centre.y, centre.z];
     let guide = ElbowGuide::new(elbow0.clone(), SAMPLE_S, T_CONTACT_S, u, BEND_M).context("the person")?;
