@@ -615,19 +615,21 @@ fn hold_last(samples: &[(f64, JointVector)], t0: f64, dt: f64, n: usize) -> Vec<
 /// Largest distance from the first `n` points of `a` to the polyline of the first `n` of `b` (m).
 pub(super) fn max_offset(a: &[Vector3<f64>], b: &[Vector3<f64>], n: usize) -> f64 {
     let b = &b[..n.min(b.len())];
-    let to_segment = |p: &Vector3<f64>, s: &[Vector3<f64>]| {
+    a.iter().take(n).map(|p| distance_to_path(p, b)).fold(0.0, f64::max)
+}
+
+/// Distance from `p` to the polyline `path` (m; NaN for an empty path).
+pub(super) fn distance_to_path(p: &Vector3<f64>, path: &[Vector3<f64>]) -> f64 {
+    let to_segment = |s: &[Vector3<f64>]| {
         let d = s[1] - s[0];
         let u = if d.norm_squared() > 0.0 { ((p - s[0]).dot(&d) / d.norm_squared()).clamp(0.0, 1.0) } else { 0.0 };
         (p - (s[0] + d * u)).norm()
     };
-    a.iter()
-        .take(n)
-        .map(|p| match b.len() {
-            0 => f64::NAN,
-            1 => (p - b[0]).norm(),
-            _ => b.windows(2).map(|s| to_segment(p, s)).fold(f64::INFINITY, f64::min),
-        })
-        .fold(0.0, f64::max)
+    match path.len() {
+        0 => f64::NAN,
+        1 => (p - path[0]).norm(),
+        _ => path.windows(2).map(to_segment).fold(f64::INFINITY, f64::min),
+    }
 }
 
 /// Largest distance between `a` and `b` over their first `n` samples (m).

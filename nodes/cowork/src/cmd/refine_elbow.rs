@@ -40,7 +40,7 @@ use serde::Serialize;
 
 use super::experiment::ExperimentArgs;
 use super::refine::{
-    Person, Run, SAMPLE_S, Trial, demonstrations_lasting, hmm_config, max_deviation, max_offset, median, model_of, opt_mm,
+    Person, Run, SAMPLE_S, Trial, demonstrations_lasting, distance_to_path, hmm_config, max_deviation, max_offset, median, model_of, opt_mm,
     prepare, unix_now, wait_for_graph, with_graph, write_json,
 };
 
@@ -188,8 +188,9 @@ pub struct ElbowRow {
     pub changed_states: Option<Vec<usize>>,
     /// The elbow's distance to the obstacle's surface every 0.1 s from the command (mm).
     pub clearance_series_mm: Vec<f64>,
-    /// The tool's distance from execution 0's at equal times, every 0.1 s (mm).
-    pub tool_deviation_series_mm: Vec<f64>,
+    /// The tool's distance from execution 0's path (in space: a tool late on its path is not
+    /// off it), every 0.1 s (mm).
+    pub tool_offset_series_mm: Vec<f64>,
     /// ds_controller's TTC blend (`/ds_controller/ttc`) about every 50 ms while a push was
     /// blended in: [s after the command, w1, w2, w3, push N].
     pub ttc_series: Vec<[f64; 5]>,
@@ -335,8 +336,8 @@ fn plot_trial(dir: &std::path::Path, t: &ElbowTrial, insert_force: f64) -> Resul
     let names: Vec<String> =
         t.executions.iter().map(|e| format!("exec {} (v{}{})", e.index, e.version, if e.pushed { ", pushed" } else { "" })).collect();
     let lines: Vec<Line<'_>> =
-        t.executions.iter().enumerate().map(|(k, e)| Line { name: &names[k], points: series(&e.tool_deviation_series_mm), color: color(k) }).collect();
-    plot_lines(&file("tool"), "Tool: distance from execution 0 at equal times", "mm", &lines, &[(TOOL_TOLERANCE_M * 1e3, "3 mm")], Some(0.0))?;
+        t.executions.iter().enumerate().map(|(k, e)| Line { name: &names[k], points: series(&e.tool_offset_series_mm), color: color(k) }).collect();
+    plot_lines(&file("tool"), "Tool: distance from execution 0's path", "mm", &lines, &[(TOOL_TOLERANCE_M * 1e3, "3 mm")], Some(0.0))?;
     let lines: Vec<Line<'_>> =
         t.executions.iter().enumerate().map(|(k, e)| Line { name: &names[k], points: series(&e.clearance_series_mm), color: color(k) }).collect();
     plot_lines(&file("clearance"), "Elbow: distance to the obstacle's surface", "mm", &lines, &[(CLEARANCE_GOAL_M * 1e3, "goal"), (0.0, "contact")], None)?;
@@ -511,7 +512,7 @@ fn study(
         kept_states: None,
         changed_states: None,
         clearance_series_mm: elbows.iter().step_by(10).map(|p| round1(clearance_at(p) * 1e3)).collect(),
-        tool_deviation_series_mm: r.path.iter().zip(&first.path).step_by(10).map(|(a, b)| round1((a - b).norm() * 1e3)).collect(),
+        tool_offset_series_mm: r.path.iter().step_by(10).map(|p| (distance_to_path(p, &first.path) * 1e3 * 100.0).round() / 100.0).collect(),
         ttc_series: decimate(&r.ttc, 0.05),
     };
     result.executions.push(row(0, version(db), false, &first, &elbow0, n_before));
