@@ -93,6 +93,10 @@ pub struct ExperimentArgs {
     /// in --ds-params (Fig. 4.7's sweep: 5, 15, 30).
     #[arg(long)]
     pub switch_force: Option<f64>,
+    /// refine-elbow: the person's largest push (N; default 14, under the thesis's f_s = 15 N).
+    /// Above f_s the guidance takes the tool along (Fig. 4.7).
+    #[arg(long, default_value_t = 14.0)]
+    pub push_max: f64,
     /// Wall-clock seconds to wait for every node to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,

@@ -211,6 +211,8 @@ pub struct ElbowTrial {
     pub wall_s: f64,
     /// TTC switch force f_s of the run (N).
     pub switch_force_n: f64,
+    /// The person's largest push (N).
+    pub push_max_n: f64,
     /// Refined executions until an execution alone cleared the obstacle; thesis: 3.
     pub executions_to_clear: Option<u32>,
     /// Obstacle centre (m, base frame) and radius (m).
@@ -276,6 +278,9 @@ impl ElbowSummary {
 /// Runs `cowork experiment refine-elbow`.
 pub fn run(args: &ExperimentArgs) -> Result<()> {
     let (model, ttc) = prepare(args)?;
+    if !(args.push_max.is_finite() && args.push_max > ttc.insert_force) {
+        bail!("--push-max {} N must be finite and above f_i = {} N", args.push_max, ttc.insert_force);
+    }
     shutdown::install();
     let mut trials = Vec::new();
     for k in 0..args.trials {
@@ -370,9 +375,10 @@ fn print_trial(t: &ElbowTrial) {
 fn trial_text(t: &ElbowTrial) -> String {
     use std::fmt::Write as _;
     let mut s = format!(
-        "refine-elbow seed {} (f_s = {} N): {}{}\n",
+        "refine-elbow seed {} (f_s = {} N, pushes up to {} N): {}{}\n",
         t.seed,
         t.switch_force_n,
+        t.push_max_n,
         if t.success { "success" } else { "FAILED" },
         if t.reason.is_empty() { String::new() } else { format!(": {}", t.reason) }
     );
@@ -417,6 +423,7 @@ fn run_trial(args: &ExperimentArgs, model: &RobotModel, seed: u64, k: u32, inser
         duration_s: 0.0,
         wall_s: 0.0,
         switch_force_n: switch_force,
+        push_max_n: args.push_max,
         executions_to_clear: None,
         obstacle_m: [f64::NAN; 3],
         obstacle_radius_m: OBSTACLE_RADIUS_M,
@@ -494,7 +501,8 @@ fn study(
     let u = if u.dot(&(elbow0[k_o] - elbow0[k_c])) > 0.0 { -u } else { u };
     let centre = elbow0[k_o] - u * OBSTACLE_OFFSET_M;
     result.obstacle_m = [centre.x, centre.y, centre.z];
-    let guide = ElbowGuide::new(elbow0.clone(), SAMPLE_S, T_CONTACT_S, u, BEND_M).context("the person")?;
+    let mut guide = ElbowGuide::new(elbow0.clone(), SAMPLE_S, T_CONTACT_S, u, BEND_M).context("the person")?;
+    guide.max_force_n = trial.args.push_max;
     let clearance_at = |p: &Vector3<f64>| (p - centre).norm() - OBSTACLE_RADIUS_M;
     let clearance = |path: &[Vector3<f64>]| path.iter().map(clearance_at).fold(f64::INFINITY, f64::min);
     let mut n_before = (T_CONTACT_S / SAMPLE_S) as usize;
