@@ -285,6 +285,12 @@ fn learned_model_target() -> Result<Target> {
         seeds.push(serde_json::to_vec(&model).context("seed model JSON")?);
     }
     seeds.push(br#"{"model_file": "../../etc/passwd"}"#.to_vec());
+    // An HMM with a null-space (elbow) HMM, as refine-elbow sends it.
+    let hmm = Model::fit(ModelKind::Hmm, std::slice::from_ref(&demo), &FitOptions::default()).context("fitting the seed HMM")?;
+    let mut with_elbow = serde_json::to_value(&hmm).context("seed HMM JSON")?;
+    with_elbow["null_space"] = serde_json::json!({"link": "lwr_link_4", "model": &hmm});
+    seeds.push(serde_json::to_vec(&with_elbow).context("seed HMM JSON")?);
+    let links: Vec<String> = (0..8).map(|i| if i == 0 { "lwr_base_link".to_owned() } else { format!("lwr_link_{i}") }).collect();
     Ok(Target {
         name: "learned model".into(),
         family: "learned models in /motion/command (ds_controller)",
@@ -292,18 +298,22 @@ fn learned_model_target() -> Result<Target> {
         dictionary: TEXT_TOKENS,
         max_len: 256 << 10,
         cost: 4,
-        check: Box::new(|b| {
+        check: Box::new(move |b| {
             let text = String::from_utf8_lossy(b);
             let mut accepted = false;
-            for kind in ["dmp", "gmr", "cgmr"] {
-                if let Ok(mut field) = ds_controller::learned::decode(kind, &text, &ds_controller::learned::ModelFiles::NONE) {
+            for kind in ["dmp", "gmr", "cgmr", "hmm"] {
+                if let Ok(mut field) = ds_controller::learned::decode(kind, &text, &ds_controller::learned::ModelFiles::NONE, &links) {
                     accepted = true;
                     let goal = Vector3::new(0.5, 0.1, 0.3);
                     let mut x = Vector3::new(0.6, 0.0, 0.4);
+                    let mut elbow = Vector3::new(0.1, 0.0, 0.7);
                     field.reset(&x, &goal);
                     for _ in 0..50 {
                         let v = field.velocity(&x, &goal, 1e-3);
                         x += v * 1e-3;
+                        if field.null_space_link().is_some() {
+                            elbow += field.null_space_velocity(&elbow) * 1e-3;
+                        }
                     }
                 }
             }
