@@ -503,6 +503,8 @@ fn study(
     result.obstacle_m = [centre.x, centre.y, centre.z];
     let mut guide = ElbowGuide::new(elbow0.clone(), SAMPLE_S, T_CONTACT_S, u, BEND_M).context("the person")?;
     guide.max_force_n = trial.args.push_max;
+    // Past the obstacle the person lets the elbow back onto its path.
+    guide.release_s = Some(T_OBSTACLE_S + 1.5);
     let clearance_at = |p: &Vector3<f64>| (p - centre).norm() - OBSTACLE_RADIUS_M;
     let clearance = |path: &[Vector3<f64>]| path.iter().map(clearance_at).fold(f64::INFINITY, f64::min);
     let mut n_before = (T_CONTACT_S / SAMPLE_S) as usize;

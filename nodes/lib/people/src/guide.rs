@@ -32,6 +32,9 @@ pub struct ElbowGuide {
     pub bend_m: f64,
     /// The bend is complete this long after the contact (s).
     pub ramp_s: f64,
+    /// From this time on (s from the start) the person lets the elbow back onto the watched
+    /// path, over `ramp_s` (past the obstacle); `None`: the bend is held to the end.
+    pub release_s: Option<f64>,
     /// Feedback of the person's hand on the elbow's distance to where they want it (1/s).
     pub feedback_per_s: f64,
     /// The arm's admittance gain c as the person feels it (m/(N·s); thesis 0.005).
@@ -57,6 +60,7 @@ impl ElbowGuide {
             direction: direction / n,
             bend_m,
             ramp_s: 3.5,
+            release_s: None,
             feedback_per_s: 5.0,
             contact_gain: 0.005,
             max_force_n: 14.0,
@@ -67,12 +71,17 @@ impl ElbowGuide {
     /// Where the person wants the elbow at `t` (s from the start; m): the watched path, bent
     /// after the contact.
     pub fn wanted(&self, t: f64) -> Vector3<f64> {
-        let s = ((t - self.t_contact_s) / self.ramp_s).clamp(0.0, 1.0);
+        let smooth = |s: f64| {
+            let s = s.clamp(0.0, 1.0);
+            s * s * (3.0 - 2.0 * s)
+        };
+        let bent = smooth((t - self.t_contact_s) / self.ramp_s)
+            * self.release_s.map_or(1.0, |r| 1.0 - smooth((t - r) / self.ramp_s));
         let last = self.path.len() - 1;
         let x = (t.max(0.0) / self.sample_s).min(last as f64);
         let i = (x.floor() as usize).min(last - 1);
         let a = x - i as f64;
-        self.path[i] * (1.0 - a) + self.path[i + 1] * a + self.direction * (self.bend_m * s * s * (3.0 - 2.0 * s))
+        self.path[i] * (1.0 - a) + self.path[i + 1] * a + self.direction * (self.bend_m * bent)
     }
 
     /// The push (N, base frame) on the elbow at `elbow` (m) at time `t`: `None` before the
@@ -197,5 +206,9 @@ mod tests {
         // Standing still on the path's end: no push.
         assert_eq!(g.push(20.0, &g.wanted(20.0)), None);
         assert!(ElbowGuide::new(vec![Vector3::zeros(); 2], 0.01, 3.0, Vector3::zeros(), 0.09).is_none());
+        // Released from 8 s: back on the path 3.5 s later.
+        let g = ElbowGuide { release_s: Some(8.0), ..g };
+        assert!((g.wanted(8.0) - Vector3::new(0.24, 0.0, 0.09)).norm() < 1e-12);
+        assert!((g.wanted(11.5) - Vector3::new(0.3, 0.0, 0.0)).norm() < 1e-12, "{:?}", g.wanted(11.5));
     }
 }
