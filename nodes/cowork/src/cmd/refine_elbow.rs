@@ -167,7 +167,7 @@ pub struct ElbowRow {
     pub version: u32,
     /// The person pressed the elbow.
     pub pushed: bool,
-    /// First push reported by lwr_slim of at least f_i, s after the command.
+    /// First push reported by lwr_sim of at least f_i, s after the command.
     pub first_contact_s: Option<f64>,
     /// Largest push reported (N).
     pub max_push_n: f64,

@@ -77,11 +77,16 @@ impl ElbowGuide {
         };
         let bent = smooth((t - self.t_contact_s) / self.ramp_s)
             * self.release_s.map_or(1.0, |r| 1.0 - smooth((t - r) / self.ramp_s));
+        let bend = self.direction * (self.bend_m * bent);
+        // `new` asks for two samples; the fields are public, so a shorter path is held, not indexed.
+        if self.path.len() < 2 {
+            return self.path.first().copied().unwrap_or_default() + bend;
+        }
         let last = self.path.len() - 1;
         let x = (t.max(0.0) / self.sample_s).min(last as f64);
         let i = (x.floor() as usize).min(last - 1);
         let a = x - i as f64;
-        self.path[i] * (1.0 - a) + self.path[i + 1] * a + self.direction * (self.bend_m * bent)
+        self.path[i] * (1.0 - a) + self.path[i + 1] * a + bend
     }
 
     /// The push (N, base frame) on the elbow at `elbow` (m) at time `t`: `None` before the
