@@ -53,6 +53,7 @@ fn float_keys() -> Vec<(&'static str, Setter, f64)> {
         ("controller.safety.max_obstacle_speed", |p| &mut p.controller.safety.max_obstacle_speed, -1.0),
         ("controller.safety.hand_radius", |p| &mut p.controller.safety.hand_radius, -0.01),
         ("controller.safety.damping", |p| &mut p.controller.safety.damping, -0.01),
+        ("controller.safety.null_space_max_speed", |p| &mut p.controller.safety.null_space_max_speed, 0.0),
         ("controller.ttc.max_wrench_age_s", |p| &mut p.controller.ttc.max_wrench_age_s, 0.0),
         ("controller.ttc.max_force", |p| &mut p.controller.ttc.max_force, 10.0),
         ("controller.ttc.contact_gain", |p| &mut p.controller.ttc.contact_gain, 0.0),

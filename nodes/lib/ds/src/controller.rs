@@ -339,6 +339,12 @@ impl ControllerConfig {
             "must be ≥ 0 m",
         )?;
         check(
+            "safety.null_space_max_speed",
+            f.null_space_max_speed,
+            f.null_space_max_speed > 0.0,
+            "must be > 0 rad/s",
+        )?;
+        check(
             "safety.iterations",
             f64::from(f.iterations),
             (1..=20).contains(&f.iterations),
@@ -1026,6 +1032,9 @@ impl DsController {
             to,
             (!ee_safety).then_some(&Point3::from(x)),
             input.time - dist.stamp,
+            // The swivel first (the tool keeps to its DS), unless a person is guiding the arm:
+            // then the null space is the blend's, not the end-effector task's.
+            self.ttc.idle().then_some(self.ik.null_space()),
             &mut qdot,
         );
         // The robot's own motion keeps the allowed speed at the tool, whatever the IK's lower

@@ -4,7 +4,7 @@
 //! Frames: base frame for every Cartesian quantity; rates in m/s, rad/s. Allocation-free.
 
 use cowork_robot::{
-    DOF, Jacobian, JointLimit, JointVector, LinkPoses, PositionJacobian, RobotModel,
+    DOF, Jacobian, JointLimit, JointMatrix, JointVector, LinkPoses, PositionJacobian, RobotModel,
     damped_pseudo_inverse, damped_pseudo_inverse_3, null_space_projector,
 };
 use nalgebra::{Matrix3, Point3, SVector, UnitQuaternion, Vector3};
@@ -135,6 +135,9 @@ pub struct Ik {
     pj: PositionJacobian,
     /// Linear rows of the tip's Jacobian at the last solve, before any joint was released.
     tool: PositionJacobian,
+    /// Projector onto the end-effector task's null space at the last solve (released joints
+    /// included), I − J†J.
+    null_space: JointMatrix,
 }
 
 /// What [`Ik::solve`] reports besides q̇.
@@ -186,6 +189,7 @@ impl Ik {
             jac: Jacobian::zeros(),
             pj: PositionJacobian::zeros(),
             tool: PositionJacobian::zeros(),
+            null_space: JointMatrix::identity(),
         }
     }
 
@@ -284,11 +288,12 @@ impl Ik {
                 q1 = pinv * twist;
             }
         }
+        let n = null_space_projector(&self.jac, &pinv);
+        self.null_space = n;
         let lowest_off = point.is_none() && posture.iter().all(|v| *v == 0.0);
         if link_task.is_none() && lowest_off {
             return q1;
         }
-        let n = null_space_projector(&self.jac, &pinv);
         // The link task (eq. 5.13) above the lowest one, and the null space it leaves.
         let (mut secondary, n_low) = match link_task {
             Some(task) => {
@@ -335,6 +340,13 @@ impl Ik {
     /// every joint included: the tool's actual linear velocity is this times q̇.
     pub fn tool_position_jacobian(&self) -> &PositionJacobian {
         &self.tool
+    }
+
+    /// Projector onto the end-effector task's null space at the configuration of the last
+    /// solve (I − J†J, J† damped; joints released on their limits count as free): a joint
+    /// velocity times it leaves the tool's twist (almost) alone.
+    pub fn null_space(&self) -> &JointMatrix {
+        &self.null_space
     }
 
     /// Largest s ∈ [0, 1] with |q̇₁ + s q̇₂| within the speed limits (times the configured

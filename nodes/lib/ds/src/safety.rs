@@ -36,13 +36,20 @@
 //! A link still never pushes into a known object (it stops at `scene_stop_distance`), and an
 //! unknown obstacle closer than the object is that link's closest point again, damped in full.
 //!
-//! Each violated constraint `jᵀq̇ ≥ b` (`j = J_lᵀu`) is met by the smallest joint-velocity change,
-//! `q̇ += j (b − jᵀq̇)/(jᵀj + λ²)`; the links are swept a few times (alternating projections onto
-//! the half-spaces). The motion along the obstacle surface is kept, only the approach is
+//! Each violated constraint `jᵀq̇ ≥ b` (`j = J_lᵀu`) is met first **in the null space of the
+//! end-effector task** when the caller gives its projector `N`: `q̇ += N j δ/max(jᵀN j, λ²)`,
+//! `δ = b − jᵀq̇`, at most `null_space_max_speed` rad/s — the elbow swivels off the obstacle
+//! while the tool keeps to its DS. Whatever that leaves (an obstacle the redundancy cannot
+//! avoid, one coming too fast) is met by the smallest joint-velocity change,
+//! `q̇ += j δ/(jᵀj + λ²)`, which gives up the end-effector task. Why: with the damper above
+//! the whole task, a jar poured over the cup with the put-back bottle 3 cm from the elbow held
+//! links 3–4 and the pour for 2 × 120 s (`coffee-cooperative` seeds 1 and 3, 2026-12-03),
+//! although a swivel of the elbow cleared the bottle. The links are swept a few times
+//! (alternating projections onto the half-spaces). The motion along the obstacle surface is kept, only the approach is
 //! removed — with a static obstacle at `stop_distance` the arm holds rather than pushes. The
 //! later uniform speed saturation keeps every constraint whose `b ≤ 0`. Allocation-free.
 
-use cowork_robot::{JointVector, LinkPoses, MAX_LINKS, PositionJacobian, RobotModel};
+use cowork_robot::{JointMatrix, JointVector, LinkPoses, MAX_LINKS, PositionJacobian, RobotModel};
 use nalgebra::Vector3;
 
 use crate::controller::Distances;
@@ -84,6 +91,12 @@ pub struct SafetyConfig {
     pub damping: f64,
     /// Sweeps over the links (≥ 1).
     pub iterations: u32,
+    /// Meet a constraint in the end-effector task's null space first (the swivel), when the
+    /// controller gives the projector; false: always override the task, as before.
+    pub null_space_first: bool,
+    /// Largest joint-velocity change (rad/s, norm) one constraint may ask of the null space;
+    /// the rest overrides the end-effector task (> 0).
+    pub null_space_max_speed: f64,
 }
 
 impl Default for SafetyConfig {
@@ -101,6 +114,8 @@ impl Default for SafetyConfig {
             hand_radius: 0.12,
             damping: 0.02,
             iterations: 3,
+            null_space_first: true,
+            null_space_max_speed: 1.0,
         }
     }
 }
@@ -114,8 +129,13 @@ pub struct SafetyReport {
     pub link: Option<usize>,
     /// Its effective distance (m, after the age extrapolation); ∞ when none.
     pub distance_m: f64,
-    /// Largest distance-rate deficit corrected (m/s).
+    /// Largest distance-rate deficit corrected by overriding the end-effector task (m/s).
     pub correction_m_s: f64,
+    /// Link of the largest constraint met in the null space alone (the end-effector task
+    /// kept); `link` is `None` when every constraint was met so.
+    pub null_space_link: Option<usize>,
+    /// Largest distance-rate deficit met in the null space alone (m/s).
+    pub null_space_m_s: f64,
 }
 
 /// The damper's scratch (one per controller).
@@ -180,6 +200,7 @@ impl LinkSafety {
         to: usize,
         tool: Option<&nalgebra::Point3<f64>>,
         age_s: f64,
+        null_space: Option<&JointMatrix>,
         qdot: &mut JointVector,
     ) -> SafetyReport {
         let mut report = SafetyReport {
@@ -235,10 +256,31 @@ impl LinkSafety {
         for _ in 0..c.iterations.max(1) {
             let mut changed = false;
             for (k, j) in self.rows.iter().enumerate().take(n) {
-                let deficit = self.bounds[k] - j.dot(qdot);
+                let mut deficit = self.bounds[k] - j.dot(qdot);
+                if deficit <= 1e-9 {
+                    continue;
+                }
+                changed = true;
+                if let Some(n) = null_space.filter(|_| c.null_space_first) {
+                    let nj: JointVector = n * j;
+                    // Undamped down to λ²: a swivel that can meet the constraint meets all of it.
+                    let mut step = nj * (deficit / j.dot(&nj).max(lambda2));
+                    let size = step.norm();
+                    if size > c.null_space_max_speed {
+                        step *= c.null_space_max_speed / size;
+                    }
+                    let met = j.dot(&step);
+                    if met > 0.0 {
+                        *qdot += step;
+                        if deficit - met <= 1e-9 && deficit > report.null_space_m_s {
+                            report.null_space_m_s = deficit;
+                            report.null_space_link = Some(links[k]);
+                        }
+                        deficit -= met;
+                    }
+                }
                 if deficit > 1e-9 {
                     *qdot += j * (deficit / (j.norm_squared() + lambda2));
-                    changed = true;
                     if deficit > report.correction_m_s {
                         report.correction_m_s = deficit;
                         report.link = Some(links[k]);

@@ -15,8 +15,13 @@ struct Run {
     /// Smallest distance of any non end-effector link point to the sphere surface (m).
     min_distance: f64,
     reached: bool,
+    /// When the goal was first reached (s).
+    reached_at: Option<f64>,
     safety_steps: usize,
+    /// Steps where the damper gave up the end-effector task (not met in its null space alone).
+    overriding_steps: usize,
     elbow_path: Vec<Vector3<f64>>,
+    tool_path: Vec<Vector3<f64>>,
 }
 
 /// Sphere centre (m) and radius at time t (s).
@@ -28,12 +33,17 @@ fn run(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, seconds
 }
 
 fn run_with(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, seconds: f64, reach_y: f64, scene: bool) -> Run {
+    let mut cfg = ControllerConfig::default();
+    cfg.safety.enabled = safety;
+    run_cfg(model, cfg, obstacle, seconds, Vector3::new(0.0, reach_y, 0.0), scene)
+}
+
+/// The tool moves by `reach` (m, base frame) from the start pose.
+fn run_cfg(model: &RobotModel, cfg: ControllerConfig, obstacle: Option<Obstacle<'_>>, seconds: f64, reach: Vector3<f64>, scene: bool) -> Run {
     let points = common::link_points(model, 1);
     let q0 = JointVector::from_row_slice(&[0.0, 0.6, 0.0, -1.3, 0.0, 0.7, 0.0]);
     let x0 = common::tip_position(model, &q0);
-    let goal = x0 + Vector3::new(0.0, reach_y, 0.0);
-    let mut cfg = ControllerConfig::default();
-    cfg.safety.enabled = safety;
+    let goal = x0 + reach;
     // The thesis's layers stay on: end-effector modulation and null-space link avoidance.
     let mut ctl = DsController::new(model.clone(), cfg).expect("config");
     let ee_first = ctl.end_effector_first_link();
@@ -43,12 +53,21 @@ fn run_with(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, se
     let mut q = q0;
     let mut poses = LinkPoses::new();
     let mut out = ControlOutput::default();
-    let mut r = Run { min_distance: f64::INFINITY, reached: false, safety_steps: 0, elbow_path: Vec::new() };
+    let mut r = Run {
+        min_distance: f64::INFINITY,
+        reached: false,
+        reached_at: None,
+        safety_steps: 0,
+        overriding_steps: 0,
+        elbow_path: Vec::new(),
+        tool_path: Vec::new(),
+    };
     let arm: Vec<_> = points[..ee_first].to_vec();
     for k in 0..(seconds * 1000.0) as usize {
         let t = k as f64 * 1e-3;
         model.forward_kinematics(&q, &mut poses);
         r.elbow_path.push(poses.get(elbow).translation.vector);
+        r.tool_path.push(common::tip_position(model, &q));
         let mut input = common::input(q, cmd, t);
         if let Some(obstacle) = obstacle {
             let (c, rad, v) = obstacle(t);
@@ -60,7 +79,11 @@ fn run_with(model: &RobotModel, safety: bool, obstacle: Option<Obstacle<'_>>, se
         }
         ctl.step(&input, &mut out).expect("step");
         r.safety_steps += usize::from(out.diagnostics.safety.active);
+        r.overriding_steps += usize::from(out.diagnostics.safety.link.is_some());
         r.reached |= out.status == Status::Converged;
+        if r.reached && r.reached_at.is_none() {
+            r.reached_at = Some(t);
+        }
         q += out.qdot * 1e-3;
     }
     r
@@ -123,6 +146,76 @@ fn forearm_comes_closer_to_a_known_scene_object_but_not_into_it() {
     assert!(object.safety_steps > 0, "the damper still acts on a scene object");
     assert!(object.min_distance > s.scene_stop_distance - 0.01, "pushed into the object: {} m", object.min_distance);
     assert!(object.min_distance < s.stop_distance - 0.03, "held as far as from a person: {} m", object.min_distance);
+}
+
+/// The pour's stall, reduced: the tool holds its pose while a known scene object stands 1.5 cm
+/// beside the elbow, inside the scene stop distance, on the side the swivel can turn away from
+/// (the put-back bottle beside the jar poured over the cup). Met in the end-effector task's
+/// null space first, the elbow swivels off to the stop distance and the tool stays where it is;
+/// with the damper overriding the task at once (as before), the retreat drags the tool along.
+#[test]
+fn a_scene_object_beside_the_elbow_is_cleared_by_the_swivel_and_the_tool_stays() {
+    let model = common::lwr();
+    let points = common::link_points(&model, 1);
+    let q0 = common::q_start();
+    let mut poses = LinkPoses::new();
+    model.forward_kinematics(&q0, &mut poses);
+    let elbow = model.joint_link(3);
+    let ee_first = DsController::new(model.clone(), ControllerConfig::default()).expect("config").end_effector_first_link();
+    let arm: Vec<_> = points[..ee_first].to_vec();
+    // The swivel moves the elbow across the arm's plane: the sphere sits on that side, its
+    // surface 1.5 cm from the closest arm point (bisection on the offset).
+    let radius = 0.05;
+    let side = {
+        let (shoulder, wrist) = (poses.get(model.joint_link(1)).translation.vector, poses.get(model.joint_link(5)).translation.vector);
+        let e = poses.get(elbow).translation.vector;
+        let axis = (wrist - shoulder).normalize();
+        axis.cross(&(e - shoulder)).normalize()
+    };
+    let at = |k: f64| Point3::from(poses.get(elbow).translation.vector + side * k);
+    let (mut lo, mut hi) = (0.0, 0.5);
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if common::min_sphere_distance(&poses, &arm, &at(mid), radius) < 0.015 { lo = mid } else { hi = mid }
+    }
+    let c = at(hi);
+    let hold = common::tip_position(&model, &q0);
+    let run = |null_space_first: bool| {
+        let mut cfg = ControllerConfig::default();
+        cfg.safety.null_space_first = null_space_first;
+        let mut ctl = DsController::new(model.clone(), cfg).expect("config");
+        let mut cmd = common::command(common::linear(2.0), hold);
+        cmd.orientation = Some(model.link_pose(&q0, model.tip_link()).rotation);
+        let (mut q, mut out, mut poses) = (q0, ControlOutput::default(), LinkPoses::new());
+        let (mut tool_off, mut overriding) = (0.0_f64, 0usize);
+        for k in 0..2000 {
+            let t = k as f64 * 1e-3;
+            model.forward_kinematics(&q, &mut poses);
+            let mut input = common::input(q, cmd, t);
+            input.distances = common::sphere_distances(&poses, &points, &c, radius, &Vector3::zeros(), t);
+            input.distances.scene_object = [true; cowork_robot::MAX_LINKS];
+            ctl.step(&input, &mut out).expect("step");
+            overriding += usize::from(out.diagnostics.safety.link.is_some());
+            q += out.qdot * 1e-3;
+            tool_off = tool_off.max((common::tip_position(&model, &q) - hold).norm());
+        }
+        model.forward_kinematics(&q, &mut poses);
+        (common::min_sphere_distance(&poses, &arm, &c, radius), tool_off, overriding)
+    };
+    let (swivel_d, swivel_off, swivel_overriding) = run(true);
+    let (override_d, override_off, override_overriding) = run(false);
+    let s = ControllerConfig::default().safety;
+    eprintln!(
+        "scene sphere 1.5 cm beside the elbow, tool holding: null space first: arm at {:.4} m after 2 s, tool moved \
+         {:.2} mm, {} steps overriding the tool; overriding at once: arm at {:.4} m, tool moved {:.2} mm, {} steps \
+         (scene stop distance {} m)",
+        swivel_d, swivel_off * 1e3, swivel_overriding, override_d, override_off * 1e3, override_overriding, s.scene_stop_distance
+    );
+    assert!(swivel_d > s.scene_stop_distance - 0.005, "the elbow did not clear the object: {swivel_d} m");
+    assert!(swivel_off < 1e-3, "the tool moved {swivel_off} m");
+    assert!(override_off > 5.0 * swivel_off.max(1e-4), "overriding at once keeps the tool too: {override_off} m");
+    // The old damper overrode the task (`approach limited`) at every step.
+    assert!(swivel_overriding * 10 < override_overriding, "{swivel_overriding} vs {override_overriding} steps");
 }
 
 /// A hand that reaches into the forearm at 1 m/s, holds inside the arm's path for 1 s, and
