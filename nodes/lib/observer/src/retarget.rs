@@ -36,11 +36,15 @@ pub struct RetargetConfig {
     pub iterations: usize,
     /// IK stops when the stacked elbow + wrist error is below this, m.
     pub tolerance_m: f64,
+    /// Joint targets move at most this fraction of each joint's URDF speed limit between two
+    /// frames (by their pose times), so a robot following them live can (0: unlimited). A human
+    /// reach of 1.2 s asked up to 2.7× the LWR's limits in 11 % of frames.
+    pub speed_limit_fraction: f64,
 }
 
 impl Default for RetargetConfig {
     fn default() -> Self {
-        Self { side: Side::Right, mount_rpy: [0.0; 3], damping: 0.05, iterations: 50, tolerance_m: 1e-4 }
+        Self { side: Side::Right, mount_rpy: [0.0; 3], damping: 0.05, iterations: 50, tolerance_m: 1e-4, speed_limit_fraction: 1.0 }
     }
 }
 
@@ -53,9 +57,11 @@ pub struct Retargeted {
     pub elbow_target: Point3<f64>,
     /// Eq. 4.7 wrist (hand) target x_h, base frame, m.
     pub wrist_target: Point3<f64>,
-    /// Remaining ‖elbow error‖ + ‖wrist error‖ after the IK, m (the robot cannot always
-    /// follow: joint limits, table).
+    /// Remaining ‖elbow error‖ + ‖wrist error‖ at `joints`, m (the robot cannot always
+    /// follow: joint limits, table, speed limits).
     pub residual_m: f64,
+    /// The joint speed limit held `joints` back from the IK's solution this frame.
+    pub speed_limited: bool,
 }
 
 /// Retargets a stream of skeletons of one demonstrator to robot joint targets.
@@ -67,6 +73,8 @@ pub struct Retargeter {
     lengths: (f64, f64),
     mount: UnitQuaternion<f64>,
     q: JointVector,
+    /// Pose time (s) and joint targets of the last frame.
+    last: Option<(f64, JointVector)>,
     poses: LinkPoses,
 }
 
@@ -76,6 +84,7 @@ impl Retargeter {
         check("retarget.damping", config.damping, 1e-6, 10.0, "must be in [1e-6, 10]")?;
         check("retarget.iterations", config.iterations as f64, 1.0, 10_000.0, "must be 1 to 10000")?;
         check("retarget.tolerance_m", config.tolerance_m, 1e-9, 1.0, "must be in [1e-9, 1] m")?;
+        check("retarget.speed_limit_fraction", config.speed_limit_fraction, 0.0, 1.0, "must be in [0, 1] (0: unlimited)")?;
         if !config.mount_rpy.iter().all(|v| v.is_finite()) || !q0.iter().all(|v| v.is_finite()) {
             return Err(ObserverError::InvalidParameter { name: "retarget.mount_rpy / q0".into(), value: f64::NAN, expected: "finite" });
         }
@@ -88,7 +97,7 @@ impl Retargeter {
         }
         let [r, p, y] = config.mount_rpy;
         let q = model.clamp_to_limits(&q0);
-        Ok(Self { mount: UnitQuaternion::from_euler_angles(r, p, y), config, model, links, lengths, q, poses: LinkPoses::new() })
+        Ok(Self { mount: UnitQuaternion::from_euler_angles(r, p, y), config, model, links, lengths, q, last: None, poses: LinkPoses::new() })
     }
 
     /// Robot upper arm and forearm lengths (m): l_a, l_fa of eq. 4.7.
@@ -118,14 +127,9 @@ impl Retargeter {
         let wrist_target = elbow_target + lfa * (body * uf);
         let mut jac = Jacobian::zeros();
         let mut pj = PositionJacobian::zeros();
-        let mut residual = f64::INFINITY;
         for _ in 0..self.config.iterations {
-            self.model.forward_kinematics(&self.q, &mut self.poses);
-            let pe = Point3::from(self.poses.get(self.links[1]).translation.vector);
-            let pw = Point3::from(self.poses.get(self.links[2]).translation.vector);
-            let (ee, ew): (Vector3<f64>, Vector3<f64>) = (elbow_target - pe, wrist_target - pw);
-            residual = ee.norm() + ew.norm();
-            if residual < self.config.tolerance_m {
+            let (ee, ew) = self.errors(&elbow_target, &wrist_target);
+            if ee.norm() + ew.norm() < self.config.tolerance_m {
                 break;
             }
             self.model.position_jacobian(&self.poses, self.links[1], &Point3::origin(), &mut pj);
@@ -136,7 +140,43 @@ impl Retargeter {
             let dq = damped_pseudo_inverse(&jac, self.config.damping) * e;
             self.q = self.model.clamp_to_limits(&(self.q + dq));
         }
-        Ok(Retargeted { joints: self.q, elbow_target, wrist_target, residual_m: residual })
+        let speed_limited = self.limit_speed(pose.time);
+        let (ee, ew) = self.errors(&elbow_target, &wrist_target);
+        Ok(Retargeted { joints: self.q, elbow_target, wrist_target, residual_m: ee.norm() + ew.norm(), speed_limited })
+    }
+
+    /// Elbow and wrist errors (target − actual, m, base frame) at the current joints.
+    fn errors(&mut self, elbow_target: &Point3<f64>, wrist_target: &Point3<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        self.model.forward_kinematics(&self.q, &mut self.poses);
+        let at = |l: usize| Point3::from(self.poses.get(l).translation.vector);
+        (elbow_target - at(self.links[1]), wrist_target - at(self.links[2]))
+    }
+
+    /// Holds the joints' step since the last frame (pose time `t`, s) within
+    /// `speed_limit_fraction` of the URDF speed limits; a frame not later than the last one
+    /// keeps the last targets. Returns whether the step was cut.
+    fn limit_speed(&mut self, t: f64) -> bool {
+        let fraction = self.config.speed_limit_fraction;
+        let Some((t_last, q_last)) = self.last.filter(|_| fraction > 0.0) else {
+            self.last = Some((t, self.q));
+            return false;
+        };
+        let dt = t - t_last;
+        if !(dt > 0.0) {
+            self.q = q_last;
+            return true;
+        }
+        let mut cut = false;
+        for (i, l) in self.model.joint_limits().iter().enumerate() {
+            let max = l.velocity * fraction * dt;
+            let step = self.q[i] - q_last[i];
+            if step.abs() > max {
+                self.q[i] = q_last[i] + max.copysign(step);
+                cut = true;
+            }
+        }
+        self.last = Some((t, self.q));
+        cut
     }
 }
 
@@ -174,5 +214,29 @@ mod tests {
         model.forward_kinematics(&out.joints, &mut poses);
         let wrist = poses.get(model.joint_link(5)).translation.vector;
         assert!((wrist - out.wrist_target.coords).norm() < 0.03);
+    }
+
+    #[test]
+    fn joint_targets_keep_to_the_speed_limits_and_hold_on_a_frame_that_is_not_later() {
+        let model = model();
+        let q0 = JointVector::from_row_slice(&[0.0, 0.3, 0.0, -0.6, 0.0, 0.3, 0.0]);
+        let mut r = Retargeter::new(model.clone(), RetargetConfig::default(), q0).expect("retargeter");
+        let p = Performer::new(1, BodySize::MEDIUM, Stance::new(-1.0, 0.0, 0.0), 1)
+            .expect("p")
+            .then(Action::Reach { side: Side::Right, target: Point3::new(-0.2, -0.2, 0.65), duration: 1.0, hold: 1.0 })
+            .expect("reach");
+        let first = r.retarget(&p.pose(0.0)).expect("first");
+        // 10 ms later the arm is far away: the targets move at the speed limits, no faster.
+        let mut far = p.pose(1.5);
+        far.time = 0.01;
+        let later = r.retarget(&far).expect("later");
+        assert!(later.speed_limited && later.residual_m > 0.05, "{later:?}");
+        for ((a, b), l) in first.joints.iter().zip(later.joints.iter()).zip(model.joint_limits()) {
+            assert!((b - a).abs() <= l.velocity * 0.01 + 1e-12);
+        }
+        let again = far.clone();
+        let held = r.retarget(&again).expect("same time");
+        assert_eq!(held.joints, later.joints, "a frame not later than the last moves nothing");
+        assert!(Retargeter::new(model, RetargetConfig { speed_limit_fraction: 1.5, ..RetargetConfig::default() }, q0).is_err());
     }
 }
