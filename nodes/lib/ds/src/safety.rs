@@ -45,9 +45,10 @@
 //! the whole task, a jar poured over the cup with the put-back bottle 3 cm from the elbow held
 //! links 3–4 and the pour for 2 × 120 s (`coffee-cooperative` seeds 1 and 3, 2026-12-03),
 //! although a swivel of the elbow cleared the bottle. The links are swept a few times
-//! (alternating projections onto the half-spaces). The motion along the obstacle surface is kept, only the approach is
-//! removed — with a static obstacle at `stop_distance` the arm holds rather than pushes. The
-//! later uniform speed saturation keeps every constraint whose `b ≤ 0`. Allocation-free.
+//! (alternating projections onto the half-spaces). The motion along the obstacle surface is
+//! kept, only the approach is removed — with a static obstacle at `stop_distance` the arm holds
+//! rather than pushes. The later uniform speed saturation keeps every constraint whose `b ≤ 0`.
+//! Allocation-free.
 
 use cowork_robot::{JointMatrix, JointVector, LinkPoses, MAX_LINKS, PositionJacobian, RobotModel};
 use nalgebra::Vector3;
@@ -129,13 +130,9 @@ pub struct SafetyReport {
     pub link: Option<usize>,
     /// Its effective distance (m, after the age extrapolation); ∞ when none.
     pub distance_m: f64,
-    /// Largest distance-rate deficit corrected by overriding the end-effector task (m/s).
+    /// Largest distance-rate deficit corrected by overriding the end-effector task (m/s); 0,
+    /// with `link` `None`, when the null space met every constraint.
     pub correction_m_s: f64,
-    /// Link of the largest constraint met in the null space alone (the end-effector task
-    /// kept); `link` is `None` when every constraint was met so.
-    pub null_space_link: Option<usize>,
-    /// Largest distance-rate deficit met in the null space alone (m/s).
-    pub null_space_m_s: f64,
 }
 
 /// The damper's scratch (one per controller).
@@ -272,10 +269,6 @@ impl LinkSafety {
                     let met = j.dot(&step);
                     if met > 0.0 {
                         *qdot += step;
-                        if deficit - met <= 1e-9 && deficit > report.null_space_m_s {
-                            report.null_space_m_s = deficit;
-                            report.null_space_link = Some(links[k]);
-                        }
                         deficit -= met;
                     }
                 }
