@@ -19,7 +19,7 @@ use cowork_msgs::msg::{
 };
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::Header;
-use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
+use cowork_robot::{JointVector, LinkPoses, MAX_LINKS, RobotModel};
 use cowork_msgs::topics;
 use cowork_ros::{Warning, quote};
 use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
@@ -104,27 +104,7 @@ impl Adapter {
     /// message has no names).
     pub fn joint_state(&self, msg: &JointState) -> Result<JointVector, Rejection> {
         let mut q = JointVector::zeros();
-        if msg.name.is_empty() {
-            if msg.position.len() != DOF {
-                return Err(Rejection { reason: format!("{} positions without names, expected {DOF}", msg.position.len()) });
-            }
-            q.copy_from_slice(&msg.position);
-        } else {
-            if msg.name.len() != msg.position.len() {
-                return Err(Rejection {
-                    reason: format!("{} names but {} positions", msg.name.len(), msg.position.len()),
-                });
-            }
-            for (j, want) in self.joint_names.iter().enumerate() {
-                let Some(i) = msg.name.iter().position(|n| n == want) else {
-                    return Err(Rejection { reason: format!("joint {want} missing") });
-                };
-                q[j] = msg.position[i];
-            }
-        }
-        if let Some((j, v)) = q.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(Rejection { reason: format!("position of {} is {v}", self.joint_names[j]) });
-        }
+        cowork_ros::joint_positions(&self.joint_names, msg, q.as_mut_slice()).map_err(|reason| Rejection { reason })?;
         Ok(q)
     }
 

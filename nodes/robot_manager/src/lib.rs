@@ -18,6 +18,7 @@
 
 pub mod node;
 pub mod params;
+pub mod preview;
 pub mod run;
 
 pub use node::{Outbox, RobotManagerNode};

@@ -35,9 +35,13 @@ fn run(args: Args) -> Result<()> {
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     let tick = params.tick_rate_hz;
     let use_sim_time = params.use_sim_time;
-    let (rm, problem) = RobotManagerNode::new(params, robot_manager::run::unix_s());
+    let preview = robot_manager::preview::load(&params, &place)?;
+    let (mut rm, problem) = RobotManagerNode::new(params, robot_manager::run::unix_s());
     if let Some(p) = problem {
         tracing::error!("{p}");
+    }
+    if let Some((previewer, joint_names)) = preview {
+        rm.set_previewer(previewer, joint_names);
     }
     let (node, options) = args.node.start("robot_manager", use_sim_time)?;
     robot_manager::run(node, rm, tick, &options)?;

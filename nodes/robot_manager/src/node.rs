@@ -13,6 +13,7 @@ use cowork_msgs::msg::{
     ActionCommand, ActionEvent, ActionSegment, Gesture, MotionCommand, MotionStatus, ObjectState, ObjectStream,
     RobotStream, WorldState,
 };
+use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::{Header, String as RosString};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion};
 
@@ -117,6 +118,8 @@ pub struct RobotManagerNode {
     warnings: u64,
     last_warning: Option<String>,
     last_world: Option<WorldState>,
+    /// Joint names of the previewer's model (empty: no previewer).
+    joint_names: Vec<String>,
 }
 
 impl RobotManagerNode {
@@ -168,6 +171,7 @@ impl RobotManagerNode {
             warnings: 0,
             last_warning: None,
             last_world: None,
+            joint_names: Vec::new(),
         };
         (node, problem)
     }
@@ -372,6 +376,31 @@ impl RobotManagerNode {
                 .map(|o| ObjectState { name: o.name.clone(), pose: o.pose, robot_distance: o.tool_distance, visible: true })
                 .collect(),
         }
+    }
+
+    /// Lets the manager preview motions (`manager.turn`); `joint_names` in the previewer's model
+    /// order, for `/joint_states`.
+    pub fn set_previewer(&mut self, previewer: cowork_manager::Previewer, joint_names: Vec<String>) {
+        self.manager.set_previewer(previewer);
+        self.joint_names = joint_names;
+    }
+
+    /// Whether the manager previews motions (and so wants `/joint_states`).
+    pub fn previews(&self) -> bool {
+        !self.joint_names.is_empty()
+    }
+
+    /// `/joint_states` (only with a previewer): the joints a preview starts from, at their
+    /// header stamp. A message that does not give every joint is warned about and dropped.
+    pub fn on_joint_state(&mut self, msg: &JointState, now: Stamp, outbox: &mut Outbox) {
+        if self.joint_names.is_empty() {
+            return;
+        }
+        let mut q = cowork_robot::JointVector::zeros();
+        if let Err(e) = cowork_ros::joint_positions(&self.joint_names, msg, q.as_mut_slice()) {
+            return self.warn(&format!("/joint_states: {e}; message dropped"));
+        }
+        self.run(Input::Joints { t: seconds(&msg.header.stamp), q }, now, outbox);
     }
 
     /// `/speech_command`.

@@ -21,6 +21,28 @@ pub struct Params {
     pub warning_period_s: f64,
     /// The robot manager (thesis Table 5.3).
     pub manager: ManagerConfig,
+    /// Where the motion preview that turns round objects (`manager.turn`) takes the arm, the
+    /// objects' shapes and the controller from.
+    pub preview: PreviewParams,
+}
+
+/// The `preview:` block. An empty `urdf` turns the preview off: actions keep the taught yaw.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PreviewParams {
+    /// Robot description (URDF with per-link meshes), the one ds_controller runs.
+    pub urdf: String,
+    /// Scene file whose `objects:` give each object's shape by name (poses come from
+    /// `/lwr/world`).
+    pub scene: String,
+    /// ds_controller's parameter file: its `controller:` block is what the preview runs.
+    pub controller_params: String,
+}
+
+impl Default for PreviewParams {
+    fn default() -> Self {
+        Self { urdf: String::new(), scene: String::new(), controller_params: "config/ds_controller.yaml".into() }
+    }
 }
 
 impl Default for Params {
@@ -32,6 +54,7 @@ impl Default for Params {
             stream_rate_hz: 30.0,
             warning_period_s: 5.0,
             manager: ManagerConfig::default(),
+            preview: PreviewParams::default(),
         }
     }
 }
@@ -50,6 +73,9 @@ impl Params {
         }
         if self.database_dir.trim().is_empty() {
             bail!("{place}: `database_dir` is empty");
+        }
+        if !self.preview.urdf.is_empty() && (self.preview.scene.is_empty() || self.preview.controller_params.is_empty()) {
+            bail!("{place}: `preview.urdf` is set, so `preview.scene` and `preview.controller_params` must be too");
         }
         if let Err(e) = self.manager.validate() {
             bail!("{place}: `manager`: {e}");

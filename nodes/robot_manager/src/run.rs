@@ -10,6 +10,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use anyhow::Result;
 use cowork_manager::Stamp;
 use cowork_msgs::msg::{ActionCommand, Gesture, MotionStatus, WorldState};
+use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::String as RosString;
 use cowork_msgs::topics;
 use cowork_ros::{DdsSource, Event, InputSource, RosNode, RunOptions, Warnings};
@@ -29,6 +30,8 @@ pub enum Input {
     Gesture(Gesture),
     /// `/lwr/world`.
     World(WorldState),
+    /// `/joint_states` (only when the manager previews motions).
+    JointState(JointState),
 }
 
 /// Hands every input of `source` to `rm` and ticks it at `tick_rate_hz` (source clock) until
@@ -58,6 +61,7 @@ pub fn run_loop<S: InputSource<Input>>(
                 rm.on_speech(&m, stamp, &mut out);
             }
             Event::Input(Input::Gesture(m)) => rm.on_gesture(&m, stamp, &mut out),
+            Event::Input(Input::JointState(m)) => rm.on_joint_state(&m, stamp, &mut out),
             Event::Input(Input::World(m)) => {
                 if !told_world {
                     told_world = true;
@@ -93,6 +97,9 @@ pub fn run(node: RosNode, mut rm: RobotManagerNode, tick_rate_hz: f64, options: 
     source.add(&topics::SPEECH_COMMAND, Input::Speech)?;
     source.add(&topics::GESTURE, Input::Gesture)?;
     source.add(&topics::WORLD, Input::World)?;
+    if rm.previews() {
+        source.add(&topics::JOINT_STATES, Input::JointState)?;
+    }
     let motion_pub = source.node().advertise(&topics::MOTION_COMMAND)?;
     let gripper_pub = source.node().advertise(&topics::GRIPPER_COMMAND)?;
     let robot_pub = source.node().advertise(&topics::ROBOT_STREAM)?;

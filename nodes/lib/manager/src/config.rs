@@ -6,6 +6,7 @@ use cowork_motion::dmp::DmpConfig;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ManagerError, Result};
+use crate::turn::TurnConfig;
 
 /// Name of the pseudo-object whose frame is the robot base (goals that belong to no object).
 pub const WORLD: &str = "world";
@@ -60,6 +61,9 @@ pub struct ManagerConfig {
     /// whose centre leaves it (a person carried it away) is reported not visible, so the
     /// supervisor replans (Fig. 5.21). `None`: every object is always visible.
     pub workspace: Option<Workspace>,
+    /// Round objects whose frame an action may turn about its axis, chosen by previewing the
+    /// motion (`crate::turn`); used only when the node gives the manager a previewer.
+    pub turn: TurnConfig,
 }
 
 /// An axis-aligned box, base frame, m.
@@ -114,6 +118,7 @@ impl Default for ManagerConfig {
             stream_tracking_m: 0.03,
             // The kitchen table's robot side up to 0.8 m above it (config/robot_manager.yaml).
             workspace: Some(Workspace { min: [-0.3, -1.0, -0.1], max: [1.0, 1.0, 0.8] }),
+            turn: TurnConfig::default(),
         }
     }
 }
@@ -152,6 +157,12 @@ impl ManagerConfig {
             && !(0..3).all(|i| w.min[i].is_finite() && w.max[i].is_finite() && w.min[i] < w.max[i])
         {
             return bad("workspace", format!("{w:?}"), "corners must be finite with min < max on every axis");
+        }
+        if let Some((field, reason)) = self.turn.problem() {
+            return bad(field, format!("{:?}", self.turn), &reason);
+        }
+        if let Some(o) = self.turn.objects.iter().find(|o| !self.objects.values().any(|t| t == *o)) {
+            return bad("turn.objects", o.clone(), "not a task object of `objects`");
         }
         if let Err(e) = self.dmp.validate() {
             return bad("dmp", format!("{:?}", self.dmp), &e.to_string());

@@ -118,6 +118,23 @@ impl Database {
         self.primitives.get(id)
     }
 
+    /// The motions taught right after `p` in the same object's frame, in order (at most 4): the
+    /// primitives numbered `n+1, n+2, …` after `p`'s number `n`, up to the first gripper action
+    /// or other object. A motion previewed with them is previewed as it will be continued.
+    pub fn chain_after(&self, p: &Primitive) -> Vec<&Primitive> {
+        let number = |id: &str| id.trim_start_matches(|c: char| !c.is_ascii_digit()).parse::<u64>().ok();
+        let mut out = Vec::new();
+        let Some(mut n) = number(&p.id) else { return out };
+        while out.len() < 4 {
+            n += 1;
+            match self.primitives.values().find(|q| number(&q.id) == Some(n)) {
+                Some(q) if q.kind != crate::segment::ActionKind::Gripper && q.object == p.object => out.push(q),
+                _ => break,
+            }
+        }
+        out
+    }
+
     /// Removes a primitive.
     pub fn remove(&mut self, id: &str) -> Result<Primitive> {
         self.primitives.remove(id).ok_or_else(|| ManagerError::NotFound { id: id.to_owned(), robot: self.robot.clone() })

@@ -11,6 +11,9 @@
 //! * [`primitive`] — NOA as position + orientation DMPs (`cowork_motion`, γ = 5 / duration,
 //!   K = 70, D = 2√K), FOA as a linear DS to the end pose, goals and demonstrations in the
 //!   object's frame (goal adaptation, eq. 5.2); reproduction error against the demonstration;
+//! * [`turn`] — a round object's frame turned about its axis when the taught yaw would bring
+//!   the arm onto another object, chosen by previewing the motion with ds_controller's own
+//!   controller (ours, beyond the thesis);
 //! * [`database`] — one JSON file per robot, written atomically, reloaded byte for byte;
 //! * [`refine`] — HMM primitives refined by kinesthetic guidance (Sec. 4.1.3), saved atomically
 //!   with their history (version, time, which states changed).
@@ -34,6 +37,7 @@ pub mod manager;
 pub mod primitive;
 pub mod refine;
 pub mod segment;
+pub mod turn;
 pub mod world;
 
 pub use config::{ManagerConfig, NoaExecution, WORLD, Workspace};
@@ -47,4 +51,5 @@ pub use manager::{
 pub use refine::{HmmEntry, Revision};
 pub use primitive::{MotionPlan, Primitive, ReproductionError, StoredPose, reproduction_error};
 pub use segment::{ActionKind, GripperCommand, Note, Segment, Segmenter};
+pub use turn::{PreviewPath, PreviewRun, Previewer, TurnConfig};
 pub use world::{ObjectReport, World, WorldReport};

@@ -1,6 +1,9 @@
 //! The robot manager's state machine (thesis Sec. 4.3.1, 5.2.1, Fig. 4.10): typed inputs in,
 //! typed outputs out, time given by the caller — no I/O, so tests run it on a mock clock.
 
+use std::collections::BTreeMap;
+
+use cowork_robot::JointVector;
 use nalgebra::Isometry3;
 
 use crate::config::{ManagerConfig, NoaExecution, WORLD};
@@ -8,6 +11,7 @@ use crate::database::Database;
 use crate::label::Label;
 use crate::primitive::{MotionPlan, Primitive};
 use crate::segment::{ActionKind, GripperCommand, Note, Segment, Segmenter};
+use crate::turn::{PreviewPath, Previewer, turned};
 use crate::world::{World, WorldReport};
 
 /// Teaching or executing.
@@ -67,6 +71,14 @@ pub enum Input {
     Motion(MotionReport),
     /// Time passes (timeouts).
     Tick,
+    /// The arm's joint positions (rad, model order) at time `t` (s): where a motion preview
+    /// starts from (`crate::turn`).
+    Joints {
+        /// s.
+        t: f64,
+        /// rad.
+        q: JointVector,
+    },
 }
 
 /// A motion for the controller.
@@ -200,6 +212,14 @@ pub struct Manager {
     unacked: Option<Unacked>,
     /// Some `/motion/status` arrived: a controller is there to send to again.
     controller_heard: bool,
+    /// Previews motions to choose a round object's turn (`crate::turn`); `None`: never turned.
+    previewer: Option<Previewer>,
+    /// Newest joint positions (time s, rad).
+    joints: Option<(f64, JointVector)>,
+    /// Every object of the last world report: scene name, pose (base frame).
+    scene_objects: Vec<(String, Isometry3<f64>)>,
+    /// The turn (rad) each object's frame was last used with, until the hand opens or closes.
+    turns: BTreeMap<String, f64>,
 }
 
 /// How often an unanswered motion command is sent again before the manager stops trying (the
@@ -236,7 +256,16 @@ impl Manager {
             now_t: 0.0,
             unacked: None,
             controller_heard: false,
+            previewer: None,
+            joints: None,
+            scene_objects: Vec::new(),
+            turns: BTreeMap::new(),
         }
+    }
+
+    /// Lets the manager preview motions and turn round objects' frames (`crate::turn`).
+    pub fn set_previewer(&mut self, previewer: Previewer) {
+        self.previewer = Some(previewer);
     }
 
     /// The database.
@@ -300,6 +329,11 @@ impl Manager {
             Input::Action(a) => self.on_action(a, now, out),
             Input::Motion(m) => self.on_motion(m, out),
             Input::Tick => self.on_tick(now, out),
+            Input::Joints { t, q } => {
+                if t.is_finite() && q.iter().all(|v| v.is_finite()) {
+                    self.joints = Some((*t, *q));
+                }
+            }
         }
     }
 
@@ -329,6 +363,8 @@ impl Manager {
             Ok(w) => w,
             Err(e) => return out.push(Output::Warn(format!("/lwr/world: {e}; report ignored"))),
         };
+        self.scene_objects.clear();
+        self.scene_objects.extend(r.objects.iter().map(|o| (o.name.clone(), o.pose)));
         if let Some(s) = self.segmenter.as_mut() {
             if !s.started() {
                 s.start(&world);
@@ -600,6 +636,7 @@ impl Manager {
                 Self::report(out, &run, true, false, String::new());
                 return;
             }
+            self.turns.clear();
             out.push(Output::Gripper(cmd));
             Self::report(out, &run, false, false, String::new());
             self.current = Some(run);
@@ -621,17 +658,18 @@ impl Manager {
                 }
             }
         };
+        let (tool, world_t) = (world.tool, world.t);
+        let pose = self.turn_for(&run, pose, out);
         if self.cfg.noa_execution == NoaExecution::Stream
             && run.kind == ActionKind::Noa
             && let Some(p) = run.primitive.as_ref()
         {
-            let poses = match p.rollout_poses(&pose, &world.tool, 0.01) {
+            let poses = match p.rollout_poses(&pose, &tool, 0.01) {
                 Ok(Some(poses)) if !poses.is_empty() => poses,
                 Ok(_) => return self.fail(&run, "the NOA has no DMP to roll out".into(), out),
                 Err(e) => return self.fail(&run, e.to_string(), out),
             };
-            let t = world.t;
-            run.stream = Some(Stream { poses, t_ref: 0.0, sent: 0, last_t: t });
+            run.stream = Some(Stream { poses, t_ref: 0.0, sent: 0, last_t: world_t });
             Self::report(out, &run, false, false, String::new());
             self.current = Some(run);
             self.stream_step(out);
@@ -645,6 +683,121 @@ impl Manager {
         run.motion_id = Some(self.send(run.label.clone(), Some(plan), out));
         Self::report(out, &run, false, false, String::new());
         self.current = Some(run);
+    }
+
+    /// The frame `object_pose` of `run`'s object, turned about its axis when the object is
+    /// round (`turn.objects`), a previewer and fresh joints are there, and the taught yaw's
+    /// preview does not reach the goal with the clearance (`crate::turn`); says why it turned.
+    fn turn_for(&mut self, run: &Running, object_pose: Isometry3<f64>, out: &mut Vec<Output>) -> Isometry3<f64> {
+        let (Some(previewer), Some(world), Some(p)) = (&self.previewer, &self.world, &run.primitive) else {
+            return object_pose;
+        };
+        let cfg = &self.cfg.turn;
+        if run.kind == ActionKind::Gripper || run.object == WORLD || !cfg.objects.contains(&run.object) {
+            return object_pose;
+        }
+        let last = self.turns.get(&run.object).copied().unwrap_or(0.0);
+        let q0 = match self.joints {
+            Some((t, q)) if (world.t - t).abs() <= cfg.max_joint_age_s => q,
+            other => {
+                out.push(Output::Warn(format!(
+                    "{}: no joint positions within {} s of the world report ({}): not previewed, {} kept at its last turn",
+                    run.label,
+                    cfg.max_joint_age_s,
+                    other.map_or("none yet".to_owned(), |(t, _)| format!("{:.3} s apart", world.t - t)),
+                    run.object
+                )));
+                return turned(&object_pose, last);
+            }
+        };
+        // Everything but the action's own object and the held one is in the way.
+        let own = [self.cfg.scene_name(&run.object), world.held.as_deref().and_then(|h| self.cfg.scene_name(h).or(Some(h)))];
+        let others: Vec<(&str, Isometry3<f64>)> = self
+            .scene_objects
+            .iter()
+            .filter(|(n, _)| !own.contains(&Some(n.as_str())))
+            .map(|(n, pose)| (n.as_str(), *pose))
+            .collect();
+        let chain = self.db.chain_after(p);
+        let preview = |turn: f64| -> Option<(crate::turn::PreviewRun, String)> {
+            let frame = turned(&object_pose, turn);
+            let (mut q, mut tool) = (q0, world.tool);
+            let mut all: Option<(crate::turn::PreviewRun, String)> = None;
+            for step in std::iter::once(p).chain(chain.iter().copied()) {
+                let r = match step.kind {
+                    ActionKind::Noa => {
+                        let poses = step.rollout_poses(&frame, &tool, 0.01).ok().flatten()?;
+                        let path = PreviewPath::Stream {
+                            poses: &poses,
+                            period: self.cfg.stream_period_s,
+                            gain: self.cfg.stream_gain,
+                            tracking: self.cfg.stream_tracking_m,
+                        };
+                        previewer.run(&q, &path, &others, cfg.reach_tolerance_m)
+                    }
+                    _ => {
+                        let path = PreviewPath::Linear { goal: step.goal_at(&frame)?, gain: step.linear_gain? };
+                        previewer.run(&q, &path, &others, cfg.reach_tolerance_m)
+                    }
+                };
+                (q, tool) = (r.q_end, r.tool_end);
+                // The chain's figures: reached if every step did, the smallest clearance; named by
+                // the step that failed or came closest.
+                let failed = !r.reached;
+                all = Some(match all {
+                    None => (r, step.label.clone()),
+                    Some((a, l)) => {
+                        let label = if failed || r.clearance_m < a.clearance_m { step.label.clone() } else { l };
+                        (a.then(r), label)
+                    }
+                });
+                if all.as_ref().is_some_and(|(a, _)| !a.reached) {
+                    break;
+                }
+            }
+            all
+        };
+        let good = |r: &(crate::turn::PreviewRun, String)| r.0.reached && r.0.clearance_m >= cfg.clearance_m;
+        let Some(first) = preview(last) else { return turned(&object_pose, last) };
+        if good(&first) {
+            self.turns.insert(run.object.clone(), last);
+            return turned(&object_pose, last);
+        }
+        let mut best = (last, first.clone());
+        for turn in cfg.candidates(last).into_iter().skip(1) {
+            let Some(r) = preview(turn) else { continue };
+            let better = (r.0.reached, r.0.clearance_m) > (best.1.0.reached, best.1.0.clearance_m);
+            if good(&r) || better {
+                best = (turn, r);
+            }
+            if good(&best.1) {
+                break;
+            }
+        }
+        let describe = |(r, label): &(crate::turn::PreviewRun, String)| {
+            let near = r.closest.as_ref().map_or(String::new(), |(l, o)| format!(" ({l} at {o})"));
+            format!(
+                "{label} {}, clearance {:.3} m{near}",
+                if r.reached { "reaches".to_owned() } else { format!("{:.3} m short", r.tool_error_m) },
+                r.clearance_m
+            )
+        };
+        let (turn, chosen) = best;
+        if (turn - last).abs() > 1e-9 {
+            out.push(Output::Info(format!(
+                "{}: {} turned {:+.0}° about its axis (at {:+.0}°: {}; turned: {})",
+                run.label,
+                run.object,
+                turn.to_degrees(),
+                last.to_degrees(),
+                describe(&first),
+                describe(&chosen)
+            )));
+        } else {
+            out.push(Output::Warn(format!("{}: no turn of {} does better than {:+.0}° ({})", run.label, run.object, last.to_degrees(), describe(&first))));
+        }
+        self.turns.insert(run.object.clone(), turn);
+        turned(&object_pose, turn)
     }
 
     /// Advances a streamed NOA: the reference time moves with time while the tool tracks the

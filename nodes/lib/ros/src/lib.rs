@@ -28,6 +28,8 @@
 pub mod config;
 pub mod graph;
 pub mod input;
+mod joints;
+pub use joints::joint_positions;
 mod node;
 pub use node::{discovery_on_all_networks, domain_id_from_env};
 pub mod params;

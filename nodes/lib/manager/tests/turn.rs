@@ -1,0 +1,129 @@
+//! Turning the cup's frame (`cowork_manager::turn`) on the coffee task learned in
+//! `config/learned`: the jar carried over the cup and poured with the bottle put back beside
+//! the cup where coffee-cooperative seed 3 left it.
+
+use cowork_ds::ControllerConfig;
+use cowork_manager::{
+    ActionRequest, Database, Input, Manager, ManagerConfig, MotionOrder, MotionPlan, ObjectReport, Output, PreviewPath, Previewer, Stamp,
+    WorldReport,
+};
+use cowork_robot::{JointVector, RobotModel};
+use cowork_sim::Scene;
+use nalgebra::Isometry3;
+
+fn root() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..")
+}
+
+fn controller() -> ControllerConfig {
+    let text = std::fs::read_to_string(root().join("config/ds_controller.yaml")).expect("ds_controller.yaml");
+    let doc: serde_yaml_ng::Value = serde_yaml_ng::from_str(&text).expect("yaml");
+    serde_yaml_ng::from_value(doc["ds_controller"]["ros__parameters"]["controller"].clone()).expect("controller block")
+}
+
+struct Kitchen {
+    model: RobotModel,
+    previewer: Previewer,
+    db: Database,
+    scene: Scene,
+}
+
+fn kitchen() -> Kitchen {
+    let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("urdf");
+    let scene = Scene::from_file(&root().join("config/scenes/kitchen.yaml")).expect("scene");
+    let previewer = Previewer::new(model.clone(), controller(), scene.objects.iter().map(|o| (o.name.clone(), o.shape)), 0.005).expect("previewer");
+    let db = Database::load(&root().join("config/learned/primitives/lwr.primitives.json")).expect("learned database");
+    Kitchen { model, previewer, db, scene }
+}
+
+fn object(k: &Kitchen, name: &str) -> Isometry3<f64> {
+    k.scene.objects.iter().find(|o| o.name == name).expect(name).pose.isometry()
+}
+
+fn world(k: &Kitchen, q: &JointVector, bottle: Isometry3<f64>) -> WorldReport {
+    let tool = k.model.link_pose(q, k.model.tip_link());
+    let objects = k
+        .scene
+        .objects
+        .iter()
+        .map(|o| {
+            let pose = match o.name.as_str() {
+                "bottle" => bottle,
+                // Held: 10 cm under the tool.
+                "coffee" => tool * Isometry3::translation(0.0, 0.0, 0.10),
+                _ => o.pose.isometry(),
+            };
+            ObjectReport { name: o.name.clone(), pose, distance: 0.3, tilt: 0.0, visible: true }
+        })
+        .collect();
+    WorldReport { t: 10.0, tool, gripper_closed: true, held: Some("coffee".into()), objects }
+}
+
+/// The arm after take(coffee) (`foa9`, `noa10` from the ready pose, previewed).
+fn holding_the_jar(k: &Kitchen) -> JointVector {
+    let deg = |d: [f64; 7]| JointVector::from_iterator(d.iter().map(|v| v.to_radians()));
+    let mut q = deg([0.0, 30.0, 0.0, 90.0, 0.0, 60.0, 0.0]);
+    let jar = object(k, "coffee");
+    for id in ["foa9", "noa10"] {
+        let p = k.db.get(id).expect(id);
+        let tool = k.model.link_pose(&q, k.model.tip_link());
+        let poses = p.rollout_poses(&jar, &tool, 0.01).expect("rollout");
+        let path = match &poses {
+            Some(poses) => PreviewPath::Stream { poses, period: 0.05, gain: 8.0, tracking: 0.03 },
+            None => PreviewPath::Linear { goal: p.goal_at(&jar).expect("goal"), gain: p.linear_gain.expect("gain") },
+        };
+        let r = k.previewer.run(&q, &path, &[], 0.01);
+        assert!(r.reached, "{id}: {r:?}");
+        q = r.q_end;
+    }
+    q
+}
+
+/// Asks a manager with a previewer for `foa12(cup)` (carry the jar over the cup) with the bottle
+/// at `bottle`; returns its outputs and the turn of the cup's frame it chose (deg), read from
+/// the goal it sent against the taught one.
+fn carry_over_the_cup(k: &Kitchen, bottle: Isometry3<f64>) -> (Vec<Output>, f64) {
+    let mut m = Manager::new(ManagerConfig::default(), k.db.clone());
+    m.set_previewer(Previewer::new(k.model.clone(), controller(), k.scene.objects.iter().map(|o| (o.name.clone(), o.shape)), 0.005).expect("previewer"));
+    let q = holding_the_jar(k);
+    let now = Stamp { t: 10.0, unix_s: 0 };
+    let mut out = Vec::new();
+    m.handle(&Input::Joints { t: 10.0, q }, now, &mut out);
+    m.handle(&Input::World(world(k, &q, bottle)), now, &mut out);
+    out.clear();
+    m.handle(&Input::Action(ActionRequest { id: 1, label: "foa12(cup)".into(), stop: false }), now, &mut out);
+    let goal = out
+        .iter()
+        .find_map(|o| match o {
+            Output::Motion(MotionOrder { plan: Some(MotionPlan::Linear { goal, .. }), .. }) => Some(*goal),
+            _ => None,
+        })
+        .expect("a linear motion to over the cup");
+    let cup = object(k, "cup");
+    let taught = k.db.get("foa12").expect("foa12").goal_at(&cup).expect("goal");
+    let a = taught.translation.vector - cup.translation.vector;
+    let b = goal.translation.vector - cup.translation.vector;
+    (out, (a.x * b.y - a.y * b.x).atan2(a.x * b.x + a.y * b.y).to_degrees())
+}
+
+/// Coffee-cooperative seed 3's failure, without DDS: the bottle put back at (0.50, 0.28) beside
+/// the cup. Previewed with the taught yaw, the carry and pour bring link 4 within millimetres of
+/// it (in the graph the damper then held the pour 2 × 120 s); the manager turns the cup's frame
+/// so the whole carry-and-pour keeps the clearance, and leaves it as taught when the bottle
+/// stands where it was taught.
+#[test]
+fn the_cup_frame_turns_away_from_a_bottle_put_back_beside_the_cup() {
+    let k = kitchen();
+    let (out, turn) = carry_over_the_cup(&k, Isometry3::translation(0.50, 0.28, 0.11));
+    let info: Vec<&String> = out.iter().filter_map(|o| if let Output::Info(t) = o { Some(t) } else { None }).collect();
+    eprintln!("bottle beside the cup: turned {turn:+.1}°: {info:?}");
+    let line = info.iter().find(|t| t.contains("turned")).expect("a turn is reported");
+    assert!(line.contains("noa13(cup)") && line.contains("bottle"), "the taught pour comes close to the bottle: {line}");
+    assert!(turn.abs() >= 14.0, "turned {turn}°");
+    let clearance: f64 = line.rsplit("clearance ").next().and_then(|t| t.split(' ').next()).and_then(|v| v.parse().ok()).expect("clearance");
+    assert!(clearance >= ManagerConfig::default().turn.clearance_m, "{line}");
+
+    let (out, turn) = carry_over_the_cup(&k, object(&k, "bottle"));
+    assert!(turn.abs() < 0.5, "bottle where it was taught: turned {turn}°");
+    assert!(!out.iter().any(|o| matches!(o, Output::Info(t) if t.contains("turned"))));
+}
