@@ -4,6 +4,7 @@
 use cowork_manager::Stamp;
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion};
 use cowork_msgs::msg::{ActionCommand, MotionCommand, MotionStatus, RobotStream, WorldObject, WorldState};
+use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::{Header, String as RosString};
 use cowork_msgs::builtin_interfaces::Time;
 use robot_manager::{Outbox, Params, RobotManagerNode};
@@ -183,4 +184,39 @@ fn bad_input_is_named_the_robot_held_and_the_node_keeps_running() {
     n.on_action(&ActionCommand { id: 24, label: noa.clone(), ..Default::default() }, at(t), &mut out);
     assert!(failed(&out, 24).is_empty(), "{out:?}");
     assert!(out.motion.last().is_some_and(|m| m.label == noa && m.kind != MotionCommand::KIND_HOLD), "{:?}", out.motion);
+}
+
+/// The bundled `preview:` block builds the previewer (the node then reads `/joint_states`); a
+/// missing scene file is named with its field; an empty `urdf` turns the preview off; a
+/// `/joint_states` without every joint is warned about and dropped.
+#[test]
+fn the_bundled_preview_loads_and_bad_joint_states_are_dropped() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = params(dir.path());
+    let (previewer, names) = robot_manager::preview::load(&p, "robot_manager.yaml").expect("loads").expect("on by default");
+    assert_eq!(names.len(), 7);
+    assert!(previewer.knows("bottle") && previewer.knows("coffee"), "the kitchen's shapes");
+    let mut bad = p.clone();
+    bad.preview.scene = "config/scenes/no-such-scene.yaml".into();
+    let e = format!("{:#}", robot_manager::preview::load(&bad, "rm.yaml").expect_err("missing scene"));
+    assert!(e.contains("rm.yaml") && e.contains("preview.scene") && e.contains("no-such-scene"), "{e}");
+    bad.preview.urdf.clear();
+    assert!(robot_manager::preview::load(&bad, "rm.yaml").expect("off").is_none());
+
+    let (mut n, _) = RobotManagerNode::new(p, 1);
+    assert!(!n.previews());
+    n.set_previewer(previewer, names.clone());
+    assert!(n.previews());
+    let mut out = Outbox::default();
+    let js = |names: &[String]| JointState {
+        header: Header { stamp: Time::from_secs_f64(1.0), frame_id: String::new() },
+        name: names.to_vec(),
+        position: vec![0.1; names.len()],
+        ..Default::default()
+    };
+    n.on_joint_state(&js(&names), at(1.0), &mut out);
+    assert_eq!(n.warnings(), 0);
+    n.on_joint_state(&js(&names[..6]), at(1.0), &mut out);
+    assert_eq!(n.warnings(), 1);
+    assert!(n.last_warning().is_some_and(|w| w.contains("/joint_states") && w.contains(names[6].as_str())), "{:?}", n.last_warning());
 }

@@ -220,6 +220,8 @@ pub struct Manager {
     scene_objects: Vec<(String, Isometry3<f64>)>,
     /// The turn (rad) each object's frame was last used with, until the hand opens or closes.
     turns: BTreeMap<String, f64>,
+    /// When an empty closed gripper was last opened (world time, s).
+    reopened_t: Option<f64>,
 }
 
 /// How often an unanswered motion command is sent again before the manager stops trying (the
@@ -260,6 +262,7 @@ impl Manager {
             joints: None,
             scene_objects: Vec::new(),
             turns: BTreeMap::new(),
+            reopened_t: None,
         }
     }
 
@@ -375,6 +378,7 @@ impl Manager {
         self.world = Some(world);
         self.flush_teaching(now, out);
         self.stream_step(out);
+        self.reopen_empty_gripper(out);
         // A gripper action is done when the simulator reports it.
         let Some(cur) = self.current.clone() else { return };
         let (Some(cmd), Some(w)) = (cur.gripper, self.world.as_ref()) else { return };
@@ -395,6 +399,27 @@ impl Manager {
             out.push(Output::Info(format!("{} done: {}", cur.label, w.held.as_deref().map_or("hand free".to_owned(), |h| format!("holding {h}")))));
             Self::report(out, &cur, true, false, String::new());
         }
+    }
+
+    /// In execute mode a gripper closed on nothing, with no gripper action under way, is opened
+    /// again (at most once per `gripper_timeout_s`): it holds nothing, and closed it is not free
+    /// for the next grasp — the supervisor's `hand.free` follows the gripper. A grasp stopped as
+    /// the person took the bottle away (coffee-cooperative seed 1) closed on nothing and left
+    /// the task waiting for a free hand until the time limit.
+    fn reopen_empty_gripper(&mut self, out: &mut Vec<Output>) {
+        let Some(w) = &self.world else { return };
+        if self.mode != Mode::Execute || !w.gripper_closed || w.held.is_some() {
+            self.reopened_t = None;
+            return;
+        }
+        if self.current.as_ref().is_some_and(|c| c.gripper.is_some())
+            || self.reopened_t.is_some_and(|t| w.t - t < self.cfg.gripper_timeout_s)
+        {
+            return;
+        }
+        self.reopened_t = Some(w.t);
+        out.push(Output::Info("the gripper is closed on nothing and no gripper action is under way: opened again".into()));
+        out.push(Output::Gripper(GripperCommand::Open));
     }
 
     fn flush_teaching(&mut self, now: Stamp, out: &mut Vec<Output>) {

@@ -189,6 +189,15 @@ fn gripper_actions_are_done_when_the_world_reports_the_grasp() {
         "{:#?}",
         warnings(&out)
     );
+    // Empty and closed with no gripper action under way: opened again, once, so the hand is
+    // free for the next grasp (the supervisor's `hand.free` follows the gripper).
+    let opens = |out: &[Output]| out.iter().filter(|o| matches!(o, Output::Gripper(GripperCommand::Open))).count();
+    assert_eq!(opens(&out), 1, "{out:#?}");
+    d.wait(1.0);
+    assert_eq!(opens(&d.take()), 0, "not again before the gripper timeout");
+    d.world.gripper(false);
+    d.wait(4.0);
+    assert_eq!(opens(&d.take()), 0, "open: nothing to do");
 }
 
 #[test]
