@@ -25,9 +25,11 @@
 //! The messages carry no arm, per-arm distance or area, so over ROS the node drives a single
 //! arm; dual-arm runs go through the library's event scripts.
 //!
-//! Outputs: `/supervisor/action` (cowork_msgs/ActionCommand), only when the decision changes —
+//! Outputs: `/supervisor/action` (cowork_msgs/ActionCommand), when the decision changes —
 //! a new action (`stop = false`) or an abort (`stop = true`, with the id and label of the
-//! aborted command); `/supervisor/working_memory` (cowork_msgs/WorkingMemory) at
+//! aborted command) — and again, with a warning, when no `/robot_stream` event of an action's
+//! id came within `action_resend_s` (a command lost before the robot manager's reader matched;
+//! at most 5 times); `/supervisor/working_memory` (cowork_msgs/WorkingMemory) at
 //! `snapshot_rate_hz`. Every other decision (learned action, mode, accomplished behaviour,
 //! waiting for a demonstration, warning) is logged.
 //!

@@ -12,7 +12,7 @@ use cowork_ros::Warning;
 use cowork_supervisor::{ActionKind, Decision, Event, GripperState, ObjectObs, Supervisor, WmSnapshot};
 use serde::Serialize;
 
-use crate::params::Params;
+use crate::params::{MAX_ACTION_RESENDS, Params};
 
 /// Identical warnings are logged at most once per this many seconds.
 pub const WARNING_REPEAT_S: f64 = 10.0;
@@ -292,6 +292,9 @@ pub struct SupervisorNode {
     scratch: Vec<Output>,
     warnings: u64,
     last_tick_s: f64,
+    /// The last action command until a `/robot_stream` event of its id arrives: (command, when
+    /// it was last sent s, how often it was sent again).
+    unacked: Option<(ActionCommand, f64, u32)>,
 }
 
 impl SupervisorNode {
@@ -311,6 +314,7 @@ impl SupervisorNode {
             scratch: Vec::new(),
             warnings: 0,
             last_tick_s: 0.0,
+            unacked: None,
         }
     }
 
@@ -366,6 +370,9 @@ impl SupervisorNode {
 
     /// `/robot_stream`.
     pub fn on_robot_stream(&mut self, msg: &RobotStream) {
+        if self.unacked.as_ref().is_some_and(|(c, _, _)| msg.events.iter().any(|e| e.command_id == c.id || e.label == c.label)) {
+            self.unacked = None;
+        }
         self.events.clear();
         self.decoder.decode_warnings(msg, &mut self.events, &mut self.pending_problems);
         let t = self.now_hint();
@@ -397,9 +404,11 @@ impl SupervisorNode {
         if !self.ready() {
             return;
         }
+        self.resend_unacked(now, out);
         self.sup.tick(now.to_secs_f64(), &mut self.decisions);
         for d in &self.decisions {
             if let Some(c) = self.tracker.command(d, now) {
+                self.unacked = (!c.stop).then(|| (c.clone(), now.to_secs_f64(), 0));
                 out.push(Output::Action(c));
             }
             match d {
@@ -413,6 +422,36 @@ impl SupervisorNode {
                 other => out.push(Output::Decision(other.clone())),
             }
         }
+    }
+
+    /// Sends the last action command again when no `/robot_stream` event of its id came within
+    /// `action_resend_s` (at most [`MAX_ACTION_RESENDS`] times, each with a warning). The
+    /// manager starts a command it missed and ignores one it runs (same label).
+    fn resend_unacked(&mut self, now: Time, out: &mut Vec<Output>) {
+        let now_s = now.to_secs_f64();
+        let Some((cmd, sent_s, resends)) = self.unacked.as_mut() else { return };
+        if now_s < *sent_s {
+            // The clock went back (a new simulation): count from now.
+            *sent_s = now_s;
+            return;
+        }
+        if now_s - *sent_s < self.params.action_resend_s {
+            return;
+        }
+        let what = format!("action {} `{}`", cmd.id, cowork_ros::text_prefix(&cmd.label, MAX_WARNING_CHARS));
+        let message = if *resends >= MAX_ACTION_RESENDS {
+            let m = format!("no /robot_stream event for {what} after {MAX_ACTION_RESENDS} resends: not sent again (is robot_manager running?)");
+            self.unacked = None;
+            m
+        } else {
+            *resends += 1;
+            *sent_s = now_s;
+            cmd.header.stamp = now;
+            out.push(Output::Action(cmd.clone()));
+            format!("no /robot_stream event for {what} within {} s: sent again ({}/{MAX_ACTION_RESENDS})", self.params.action_resend_s, *resends)
+        };
+        self.warnings += 1;
+        out.push(Output::Warning(Warning::new("supervisor:action_resent", message)));
     }
 
     /// [`on_tick`](Self::on_tick) keeping only the `/supervisor/action` messages (appended to

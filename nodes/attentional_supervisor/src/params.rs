@@ -18,6 +18,11 @@ pub struct Params {
     /// Decide nothing until the first `/object_stream` arrived: without object distances
     /// the activation periods (eq. 4.8) are all λ_max and the first command would be arbitrary.
     pub wait_for_object_stream: bool,
+    /// An action command with no `/robot_stream` event of its id (started, done or failed)
+    /// this long after it was sent is sent again, s (node clock), at most
+    /// [`MAX_ACTION_RESENDS`] times: a command published before the robot manager's reader
+    /// matched is lost on the volatile topic, and the task would wait for it for ever.
+    pub action_resend_s: f64,
     /// Attentional system (thesis Table 5.3).
     pub attention: SupervisorConfig,
 }
@@ -29,10 +34,14 @@ impl Default for Params {
             snapshot_rate_hz: 10.0,
             use_sim_time: false,
             wait_for_object_stream: true,
+            action_resend_s: 1.0,
             attention: SupervisorConfig::default(),
         }
     }
 }
+
+/// How often one action command is sent again (see [`Params::action_resend_s`]).
+pub const MAX_ACTION_RESENDS: u32 = 5;
 
 /// Deepest task tree `attention.max_depth` may ask for (the kitchen tasks need 6).
 pub const MAX_TASK_DEPTH: usize = 1000;
@@ -48,6 +57,10 @@ impl Params {
         let s = self.snapshot_rate_hz;
         if !(s.is_finite() && s >= 0.0 && s <= t) {
             bail!("{place}: `snapshot_rate_hz` = {s} must be in [0, tick_rate_hz = {t}] Hz (0 = off)");
+        }
+        let r = self.action_resend_s;
+        if !(r.is_finite() && r > 0.0 && r <= 60.0) {
+            bail!("{place}: `action_resend_s` = {r} must be in (0, 60] s");
         }
         if let Err(e) = self.attention.validate() {
             match e {

@@ -544,3 +544,47 @@ fn a_failed_action_event_becomes_action_failed_with_its_reason() {
         Event::ActionFailed { arm: None, label: "foa9(water)".into(), reason: "no primitive `foa9`".into() }
     );
 }
+
+/// A command the robot manager never answers (its reader matched after it was sent) is sent
+/// again every `action_resend_s` with a warning, at most 5 times; a "started" event of its id
+/// ends that.
+#[test]
+fn an_unanswered_action_command_is_sent_again() {
+    let params = Params::default();
+    let sup = Supervisor::new(kitchen(), "pourDrink", params.attention.clone()).expect("task");
+    let mut teacher = SupervisorNode::new(sup, &params);
+    teach_pour_through_messages(&mut teacher);
+    let ltm = teacher.into_supervisor().ltm().clone();
+    let executing = || {
+        let mut node = SupervisorNode::new(Supervisor::new(ltm.clone(), "pourDrink", params.attention.clone()).expect("task"), &params);
+        node.on_object_stream(&objects(&[("water", 0.6), ("cup", 0.9)]));
+        node
+    };
+    let mut node = executing();
+    let mut all = Vec::new();
+    let mut out = Vec::new();
+    for k in 0..1000 {
+        out.clear();
+        node.tick(t(k as f64 * 0.01), &mut out);
+        all.extend(out.iter().cloned());
+    }
+    let first = all.first().cloned().expect("an action is commanded");
+    assert!(all.iter().all(|c| c.id == first.id && c.label == first.label && !c.stop), "the same command: {all:?}");
+    assert_eq!(all.len(), 6, "sent once and again 5 times, 1 s apart: {all:?}");
+    assert_eq!(node.warnings(), 6, "each resend and the giving up warned");
+
+    // Answered by a started event of its id: not sent again.
+    let mut node = executing();
+    let mut all = Vec::new();
+    for k in 0..500 {
+        out.clear();
+        node.tick(t(k as f64 * 0.01), &mut out);
+        if let Some(c) = out.first() {
+            let started = ActionEvent { label: c.label.clone(), command_id: c.id, ..Default::default() };
+            node.on_robot_stream(&RobotStream { events: vec![started], ..Default::default() });
+        }
+        all.extend(out.iter().cloned());
+    }
+    assert_eq!(all.len(), 1, "{all:?}");
+    assert_eq!(node.warnings(), 0);
+}
