@@ -216,13 +216,19 @@ pub struct Manager {
     previewer: Option<Previewer>,
     /// Newest joint positions (time s, rad).
     joints: Option<(f64, JointVector)>,
-    /// Every object of the last world report: scene name, pose (base frame).
-    scene_objects: Vec<(String, Isometry3<f64>)>,
+    /// Every object of the last world report: scene name, pose (base frame), and whether it
+    /// rests upright (a preview avoids only those: a bottle a person is pouring moves on).
+    scene_objects: Vec<(String, Isometry3<f64>, bool)>,
+    /// Per object (scene name): where it last came to rest and since when (s).
+    rest: BTreeMap<String, (Isometry3<f64>, f64)>,
     /// The turn (rad) each object's frame was last used with, until the hand opens or closes.
     turns: BTreeMap<String, f64>,
     /// When an empty closed gripper was last opened (world time, s).
     reopened_t: Option<f64>,
 }
+
+/// An object that has not moved for this long rests (s).
+const REST_S: f64 = 1.0;
 
 /// How often an unanswered motion command is sent again before the manager stops trying (the
 /// action's own timeout then fails it).
@@ -261,6 +267,7 @@ impl Manager {
             previewer: None,
             joints: None,
             scene_objects: Vec::new(),
+            rest: BTreeMap::new(),
             turns: BTreeMap::new(),
             reopened_t: None,
         }
@@ -366,8 +373,7 @@ impl Manager {
             Ok(w) => w,
             Err(e) => return out.push(Output::Warn(format!("/lwr/world: {e}; report ignored"))),
         };
-        self.scene_objects.clear();
-        self.scene_objects.extend(r.objects.iter().map(|o| (o.name.clone(), o.pose)));
+        self.note_rest(r);
         if let Some(s) = self.segmenter.as_mut() {
             if !s.started() {
                 s.start(&world);
@@ -398,6 +404,22 @@ impl Manager {
             self.current = None;
             out.push(Output::Info(format!("{} done: {}", cur.label, w.held.as_deref().map_or("hand free".to_owned(), |h| format!("holding {h}")))));
             Self::report(out, &cur, true, false, String::new());
+        }
+    }
+
+    /// Keeps [`Self::scene_objects`]: an object rests when it has moved less than 5 mm and 3°
+    /// for [`REST_S`] and stands within 15° of upright (one never seen moving rests).
+    fn note_rest(&mut self, r: &WorldReport) {
+        self.scene_objects.clear();
+        for o in &r.objects {
+            let anchor = self.rest.entry(o.name.clone()).or_insert((o.pose, f64::NEG_INFINITY));
+            let moved = (o.pose.translation.vector - anchor.0.translation.vector).norm() > 0.005
+                || o.pose.rotation.angle_to(&anchor.0.rotation) > 3f64.to_radians();
+            if moved || r.t < anchor.1 {
+                *anchor = (o.pose, r.t);
+            }
+            let upright = (o.pose.rotation * nalgebra::Vector3::z()).z >= 15f64.to_radians().cos();
+            self.scene_objects.push((o.name.clone(), o.pose, upright && r.t - anchor.1 >= REST_S));
         }
     }
 
@@ -735,13 +757,14 @@ impl Manager {
                 return turned(&object_pose, last);
             }
         };
-        // Everything but the action's own object and the held one is in the way.
+        // Every object at rest but the action's own and the held one is in the way (one that
+        // moves or is tilted — a bottle a person is pouring — will be elsewhere).
         let own = [self.cfg.scene_name(&run.object), world.held.as_deref().and_then(|h| self.cfg.scene_name(h).or(Some(h)))];
         let others: Vec<(&str, Isometry3<f64>)> = self
             .scene_objects
             .iter()
-            .filter(|(n, _)| !own.contains(&Some(n.as_str())))
-            .map(|(n, pose)| (n.as_str(), *pose))
+            .filter(|(n, _, resting)| *resting && !own.contains(&Some(n.as_str())))
+            .map(|(n, pose, _)| (n.as_str(), *pose))
             .collect();
         let chain = self.db.chain_after(p);
         let preview = |turn: f64| -> Option<(crate::turn::PreviewRun, String)> {

@@ -20,8 +20,9 @@
 //! object first, and the first that reaches with the clearance is taken, else the one that
 //! reaches with the most clearance (else the taught yaw).
 //!
-//! Not previewed: people (they move; the damper and the DS modulation are for them), the table,
-//! the held object's own shape.
+//! Not previewed: people (they move; the damper and the DS modulation are for them), objects
+//! that moved within the last second or stand tilted (a bottle the person is pouring over the
+//! cup will be put back elsewhere), the table, the held object's own shape.
 
 use std::collections::BTreeMap;
 

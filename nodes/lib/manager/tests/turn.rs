@@ -9,7 +9,7 @@ use cowork_manager::{
 };
 use cowork_robot::{JointVector, RobotModel};
 use cowork_sim::Scene;
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Vector3};
 
 fn root() -> std::path::PathBuf {
     std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..")
@@ -126,4 +126,10 @@ fn the_cup_frame_turns_away_from_a_bottle_put_back_beside_the_cup() {
     let (out, turn) = carry_over_the_cup(&k, object(&k, "bottle"));
     assert!(turn.abs() < 0.5, "bottle where it was taught: turned {turn}°");
     assert!(!out.iter().any(|o| matches!(o, Output::Info(t) if t.contains("turned"))));
+
+    // The same spot, tilted 100°: a person pouring from it over the cup — not at rest, not
+    // avoided (it will be put back elsewhere).
+    let pouring = Isometry3::new(Vector3::new(0.50, 0.28, 0.25), Vector3::x() * 100f64.to_radians());
+    let (_, turn) = carry_over_the_cup(&k, pouring);
+    assert!(turn.abs() < 0.5, "a bottle being poured is not avoided: turned {turn}°");
 }
