@@ -805,16 +805,21 @@ impl Manager {
             }
             all
         };
-        let good = |r: &(crate::turn::PreviewRun, String)| r.0.reached && r.0.clearance_m >= cfg.clearance_m;
+        // The yaw in use is kept when it reaches with the clearance; a turn must also keep the
+        // joints off their limits and the wrist off its singularity.
+        let clear = |r: &(crate::turn::PreviewRun, String)| r.0.reached && r.0.clearance_m >= cfg.clearance_m;
+        let supple = |r: &(crate::turn::PreviewRun, String)| r.0.joint_margin_rad >= cfg.joint_margin_deg.to_radians();
+        let good = |r: &(crate::turn::PreviewRun, String)| clear(r) && supple(r);
+        let rank = |r: &(crate::turn::PreviewRun, String)| (r.0.reached, supple(r), r.0.clearance_m);
         let Some(first) = preview(last) else { return turned(&object_pose, last) };
-        if good(&first) {
+        if clear(&first) {
             self.turns.insert(run.object.clone(), last);
             return turned(&object_pose, last);
         }
         let mut best = (last, first.clone());
         for turn in cfg.candidates(last).into_iter().skip(1) {
             let Some(r) = preview(turn) else { continue };
-            let better = (r.0.reached, r.0.clearance_m) > (best.1.0.reached, best.1.0.clearance_m);
+            let better = rank(&r) > rank(&best.1);
             if good(&r) || better {
                 best = (turn, r);
             }
@@ -825,9 +830,10 @@ impl Manager {
         let describe = |(r, label): &(crate::turn::PreviewRun, String)| {
             let near = r.closest.as_ref().map_or(String::new(), |(l, o)| format!(" ({l} at {o})"));
             format!(
-                "{label} {}, clearance {:.3} m{near}",
+                "{label} {}, clearance {:.3} m{near}, joint margin {:.0}°",
                 if r.reached { "reaches".to_owned() } else { format!("{:.3} m short", r.tool_error_m) },
-                r.clearance_m
+                r.clearance_m,
+                r.joint_margin_rad.to_degrees()
             )
         };
         let (turn, chosen) = best;
