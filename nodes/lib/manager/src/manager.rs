@@ -810,7 +810,11 @@ impl Manager {
         let clear = |r: &(crate::turn::PreviewRun, String)| r.0.reached && r.0.clearance_m >= cfg.clearance_m;
         let supple = |r: &(crate::turn::PreviewRun, String)| r.0.joint_margin_rad >= cfg.joint_margin_deg.to_radians();
         let good = |r: &(crate::turn::PreviewRun, String)| clear(r) && supple(r);
-        let rank = |r: &(crate::turn::PreviewRun, String)| (r.0.reached, supple(r), r.0.clearance_m);
+        // Failing that: reaching first, then passing (half the clearance: beyond the damper's
+        // stop), then the margin, then the clearance — a supple turn 1 cm from the bottle held
+        // seed 7's pour for 120 s.
+        let passable = |r: &(crate::turn::PreviewRun, String)| r.0.clearance_m >= 0.5 * cfg.clearance_m;
+        let rank = |r: &(crate::turn::PreviewRun, String)| (r.0.reached, passable(r), supple(r), r.0.clearance_m);
         let Some(first) = preview(last) else { return turned(&object_pose, last) };
         if clear(&first) {
             self.turns.insert(run.object.clone(), last);
