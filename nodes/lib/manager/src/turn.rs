@@ -214,6 +214,8 @@ impl std::fmt::Debug for Collider {
 pub struct Previewer {
     model: RobotModel,
     controller: ControllerConfig,
+    /// A fresh controller, cloned for every preview (validated once).
+    fresh: DsController,
     colliders: BTreeMap<String, Collider>,
     /// Per link: sampled mesh vertices (link frame), the centre and radius of a sphere
     /// holding them.
@@ -239,7 +241,7 @@ impl Previewer {
         controller.period_s = step_s;
         // The preview is of the undisturbed motion: a guiding person's TTC is not simulated.
         controller.ttc.enabled = false;
-        DsController::new(model.clone(), controller).map_err(|e| format!("controller configuration: {e}"))?;
+        let fresh = DsController::new(model.clone(), controller).map_err(|e| format!("controller configuration: {e}"))?;
         let colliders = shapes
             .into_iter()
             .map(|(name, s)| {
@@ -265,7 +267,7 @@ impl Previewer {
                 (pts, centre, radius)
             })
             .collect();
-        Ok(Self { model, controller, colliders, links })
+        Ok(Self { model, controller, fresh, colliders, links })
     }
 
     /// Whether the shape of scene object `name` is known.
@@ -277,23 +279,13 @@ impl Previewer {
     /// frame; unknown names are skipped), measuring the clearance every 20 ms or so.
     pub fn run(&self, q0: &JointVector, path: &PreviewPath<'_>, objects: &[(&str, Isometry3<f64>)], reach_tolerance_m: f64) -> PreviewRun {
         let dt = self.controller.period_s;
-        let Ok(mut ctl) = DsController::new(self.model.clone(), self.controller) else {
-            // Checked in `new`.
-            let tool_end = self.model.link_pose(q0, self.model.tip_link());
-            return PreviewRun {
-                reached: false,
-                tool_error_m: f64::INFINITY,
-                clearance_m: 0.0,
-                closest: None,
-                joint_margin_rad: 0.0,
-                q_end: *q0,
-                tool_end,
-                duration_s: 0.0,
-            };
-        };
+        let mut ctl = self.fresh.clone();
         let known: Vec<(&str, Isometry3<f64>, &Collider)> =
             objects.iter().filter_map(|(n, p)| self.colliders.get(*n).map(|c| (*n, *p, c))).collect();
         let end = path.end();
+        let gain = match path {
+            PreviewPath::Stream { gain, .. } | PreviewPath::Linear { gain, .. } => *gain,
+        };
         let (last_t, mut horizon) = match path {
             PreviewPath::Stream { poses, .. } => {
                 let t = poses.last().map_or(0.0, |p| p.0);
@@ -331,9 +323,6 @@ impl Previewer {
                     rollout[sent].1
                 }
                 PreviewPath::Linear { goal, .. } => *goal,
-            };
-            let gain = match path {
-                PreviewPath::Stream { gain, .. } | PreviewPath::Linear { gain, .. } => *gain,
             };
             if k.is_multiple_of(check_every) {
                 joint_margin = joint_margin.min(self.joint_margin(&q));
