@@ -268,13 +268,18 @@ fn execute(node: &mut SupervisorNode, running: Option<&str>, start_s: f64, ticks
     all
 }
 
+/// The LTM after pourDrink was taught through messages.
+fn taught_pour(params: &Params) -> Ltm {
+    let sup = Supervisor::new(kitchen(), "pourDrink", params.attention.clone()).expect("task");
+    let mut teacher = SupervisorNode::new(sup, params);
+    teach_pour_through_messages(&mut teacher);
+    teacher.into_supervisor().ltm().clone()
+}
+
 #[test]
 fn executing_the_taught_pouring_commands_the_demonstrated_sequence() {
     let params = Params::default();
-    let sup = Supervisor::new(kitchen(), "pourDrink", params.attention.clone()).expect("task");
-    let mut teacher = SupervisorNode::new(sup, &params);
-    teach_pour_through_messages(&mut teacher);
-    let ltm = teacher.into_supervisor().ltm().clone();
+    let ltm = taught_pour(&params);
 
     let sup = Supervisor::new(ltm.clone(), "pourDrink", params.attention.clone()).expect("task");
     let mut node = SupervisorNode::new(sup, &params);
@@ -551,10 +556,7 @@ fn a_failed_action_event_becomes_action_failed_with_its_reason() {
 #[test]
 fn an_unanswered_action_command_is_sent_again() {
     let params = Params::default();
-    let sup = Supervisor::new(kitchen(), "pourDrink", params.attention.clone()).expect("task");
-    let mut teacher = SupervisorNode::new(sup, &params);
-    teach_pour_through_messages(&mut teacher);
-    let ltm = teacher.into_supervisor().ltm().clone();
+    let ltm = taught_pour(&params);
     let executing = || {
         let mut node = SupervisorNode::new(Supervisor::new(ltm.clone(), "pourDrink", params.attention.clone()).expect("task"), &params);
         node.on_object_stream(&objects(&[("water", 0.6), ("cup", 0.9)]));
