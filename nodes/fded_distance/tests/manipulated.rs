@@ -70,7 +70,7 @@ fn node(s: &mut Setup) -> FdedNode {
     let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF");
     let mut node = FdedNode::new(model, params()).expect("node");
     node.on_camera_info(&s.info).expect("camera info");
-    node.on_joint_state(&s.lwr.joint_states()).expect("joint state");
+    node.on_joint_state(&s.lwr.joint_states(0)).expect("joint state");
     node.on_tf_static(&s.lwr.tf_static()).expect("tf_static");
     node
 }
@@ -111,7 +111,7 @@ fn closest(msg: &LinkDistances) -> (f64, Point3<f64>) {
 fn the_manipulated_object_is_removed_and_everything_else_stays() {
     let mut s = setup();
     let mut node = node(&mut s);
-    let world = s.lwr.world();
+    let world = s.lwr.world(0);
     let t = world.header.stamp.to_secs_f64();
     assert!((s.image.header.stamp.to_secs_f64() - t).abs() < 1e-9, "frame and world at the same time");
 
@@ -181,7 +181,7 @@ fn the_manipulated_object_is_removed_and_everything_else_stays() {
 #[test]
 fn disabled_or_without_shapes_nothing_is_removed() {
     let mut s = setup();
-    let world = s.lwr.world();
+    let world = s.lwr.world(0);
     for p in [
         Params { manipulated: fded_distance::ManipulatedParams { enabled: false, ..params().manipulated }, ..params() },
         Params { manipulated: fded_distance::ManipulatedParams { scene: String::new(), ..params().manipulated }, ..params() },
@@ -189,7 +189,7 @@ fn disabled_or_without_shapes_nothing_is_removed() {
         let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF");
         let mut node = FdedNode::new(model, p).expect("node");
         node.on_camera_info(&s.info).expect("camera info");
-        node.on_joint_state(&s.lwr.joint_states()).expect("joint state");
+        node.on_joint_state(&s.lwr.joint_states(0)).expect("joint state");
         node.on_tf_static(&s.lwr.tf_static()).expect("tf_static");
         node.on_manipulated(&list(&world, &["bottle"])).expect("accepted");
         let (d, p) = closest(&node.on_depth(&s.image).expect("frame").clone());

@@ -97,11 +97,11 @@ impl DepthConfig {
 pub struct DepthSnapshot {
     /// Simulated time of the state.
     pub stamp: Time,
-    /// Joint positions, rad.
-    pub q: JointVector,
-    /// Object shapes and poses (base frame).
+    /// Each arm's base pose (scene frame) and joint positions (rad), scene order.
+    pub arms: Vec<(Isometry3<f64>, JointVector)>,
+    /// Object shapes and poses (scene frame).
     pub objects: Vec<(Shape, Isometry3<f64>)>,
-    /// Capsule bodies of the people (base frame).
+    /// Capsule bodies of the people (scene frame).
     pub people: Vec<Capsule>,
 }
 
@@ -109,7 +109,8 @@ impl DepthSnapshot {
     /// Copies the simulator's current state and the people's bodies (reusing the buffers).
     pub fn capture(&mut self, sim: &Simulator, people: &People) {
         self.stamp = Time::from_nanos(sim.time_ns());
-        self.q = *sim.joint_positions();
+        self.arms.clear();
+        self.arms.extend(sim.arms().iter().map(|a| (*a.base(), *a.joint_positions())));
         self.objects.clear();
         self.objects.extend(sim.objects().iter().map(|o| (o.shape, o.pose)));
         self.people.clear();
@@ -220,7 +221,7 @@ impl DepthCamera {
     /// Renders `snap` into `image` and fills `info` (both stamped with the snapshot's time, in
     /// the camera's optical frame), reusing their buffers.
     pub fn render(&mut self, snap: &DepthSnapshot, image: &mut Image, info: &mut CameraInfo) -> Result<()> {
-        self.renderer.render(&snap.q, &snap.objects, &snap.people, &mut self.depth)?;
+        self.renderer.render_arms(&snap.arms, &snap.objects, &snap.people, &mut self.depth)?;
         self.depth.write_image_msg(snap.stamp, &self.frame_id, self.encoding, image);
         *info = self.intrinsics.to_camera_info(snap.stamp, &self.frame_id);
         Ok(())

@@ -18,39 +18,43 @@ use serde::Serialize;
 use crate::depth::{DepthConfig, DepthSnapshot, FrameClock, People};
 use crate::params::{LwrSimConfig, WrenchMode};
 
-/// What the node takes in.
+/// What the node takes in. Per-arm inputs carry the arm's index ([`Simulator::arms`]; 0 for
+/// the one arm of a single-arm scene), from the topic in that arm's namespace.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Input {
     /// `/lwr/joint_velocity_command`: 7 joint velocities, rad/s.
-    VelocityCommand(Float64MultiArray),
+    VelocityCommand(usize, Float64MultiArray),
     /// `/lwr/gripper_command`: `open` / `close`.
-    GripperCommand(RosString),
+    GripperCommand(usize, RosString),
     /// `/external_wrench`: a push on the arm.
-    Wrench(WrenchStamped),
+    Wrench(usize, WrenchStamped),
     /// `/human/skeleton`: a person for the depth camera.
     Skeleton(Skeleton),
     /// `/lwr/place_object`: a person moved a scene object.
     PlaceObject(WorldObject),
 }
 
-/// What the node puts out, in the order it happened.
+/// What the node puts out, in the order it happened. Per-arm outputs carry the arm's index:
+/// they go to the topic in that arm's namespace.
 #[derive(Debug, Clone, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Output {
     /// `/clock`.
     Clock(Clock),
     /// `/joint_states`.
-    JointStates(JointState),
+    JointStates(usize, JointState),
     /// `/tf`.
     Tf(TFMessage),
     /// `/lwr/world`.
-    World(WorldState),
+    World(usize, WorldState),
     /// `/lwr/external_wrench` (execute mode).
-    ExternalWrench(WrenchStamped),
+    ExternalWrench(usize, WrenchStamped),
     /// The state a depth frame shows, for the renderer (serialised as its stamp and counts).
     Depth(#[serde(serialize_with = "depth_summary")] Box<DepthSnapshot>),
     /// The gripper was commanded: closed (on `object`, if one was within reach) or opened.
     Gripper {
+        /// The arm.
+        arm: usize,
         /// Closed (true) or open.
         closed: bool,
         /// The object grasped.
@@ -64,7 +68,7 @@ fn depth_summary<S: serde::Serializer>(snap: &DepthSnapshot, s: S) -> Result<S::
     use serde::ser::SerializeStruct;
     let mut st = s.serialize_struct("DepthSnapshot", 4)?;
     st.serialize_field("stamp", &snap.stamp)?;
-    st.serialize_field("q", snap.q.as_slice())?;
+    st.serialize_field("q", snap.arms.first().map_or(&[][..], |a| a.1.as_slice()))?;
     st.serialize_field("objects", &snap.objects.len())?;
     st.serialize_field("people_capsules", &snap.people.len())?;
     st.end()
@@ -94,8 +98,10 @@ pub struct LwrSim {
     every_tf: u64,
     every_world: u64,
     steps: u64,
-    base_frame: String,
-    joint_state: JointState,
+    /// The scene's root frame (`lwr_base_link`, or `world` with named arms).
+    root_frame: String,
+    /// `/joint_states` of each arm, reused.
+    joint_states: Vec<JointState>,
     camera_clock: FrameClock,
     config_depth: DepthConfig,
     people: People,
@@ -104,8 +110,9 @@ pub struct LwrSim {
     wrench_mode: WrenchMode,
     every_wrench: u64,
     wrench_timeout_ns: i64,
-    /// Execute mode: the acting wrench (base frame), its link and when it arrived (ns).
-    reported: Option<(Wrench, usize, i64)>,
+    /// Execute mode: per arm, the acting wrench (the arm's base frame), its link and when it
+    /// arrived (ns).
+    reported: Vec<Option<(Wrench, usize, i64)>>,
     /// Refusals of wrenches applied at their stamps during [`step`](Self::step), until
     /// [`on_step`](Self::on_step) puts them out.
     step_warnings: Vec<Warning>,
@@ -117,7 +124,8 @@ pub const MAX_STEP_WARNINGS: usize = 64;
 /// Wrenches waiting for their stamp, and the newest stamp received (ns).
 #[derive(Debug, Default)]
 struct FollowWrench {
-    pending: std::collections::VecDeque<WrenchStamped>,
+    /// (arm, wrench), stamps as received.
+    pending: std::collections::VecDeque<(usize, WrenchStamped)>,
     newest_ns: Option<i64>,
 }
 
@@ -129,8 +137,8 @@ impl LwrSim {
     pub fn new(sim: Simulator, config: LwrSimConfig) -> Self {
         let every = |hz: f64| ((1.0 / (hz * config.simulation.step_s)).round() as u64).max(1);
         let names = sim.model().joint_names().to_vec();
-        let base_frame = sim.model().link_names()[0].clone();
         let n = names.len();
+        let arms = sim.arms();
         let camera_clock = FrameClock::new(sim.scene().camera.rate_hz);
         Self {
             people: People::new(config.depth.floor_height_m, config.depth.person_timeout_s),
@@ -141,18 +149,21 @@ impl LwrSim {
             every_tf: every(config.publish.tf_rate_hz),
             every_world: every(config.publish.world_rate_hz),
             steps: 0,
-            base_frame,
-            joint_state: JointState {
-                name: names,
-                position: vec![0.0; n],
-                velocity: vec![0.0; n],
-                ..Default::default()
-            },
+            root_frame: sim.root_frame().to_owned(),
+            joint_states: arms
+                .iter()
+                .map(|_| JointState {
+                    name: names.clone(),
+                    position: vec![0.0; n],
+                    velocity: vec![0.0; n],
+                    ..Default::default()
+                })
+                .collect(),
             follow: None,
             wrench_mode: config.external_wrench.mode,
             every_wrench: every(config.external_wrench.report_rate_hz),
             wrench_timeout_ns: (sim.params().wrench_timeout_s * 1e9) as i64,
-            reported: None,
+            reported: vec![None; arms.len()],
             step_warnings: Vec::new(),
             sim,
         }
@@ -162,7 +173,7 @@ impl LwrSim {
     /// reported wrench is dropped at a change (an applied one ends within `wrench_timeout_s`).
     pub fn set_wrench_mode(&mut self, mode: WrenchMode) {
         if mode != self.wrench_mode {
-            self.reported = None;
+            self.reported.fill(None);
         }
         self.wrench_mode = mode;
     }
@@ -172,19 +183,20 @@ impl LwrSim {
         self.wrench_mode
     }
 
-    /// Execute mode: the acting wrench as `/lwr/external_wrench` reports it — stamped now,
-    /// `header.frame_id` the contact link, force and torque in that link's frame at the
-    /// current pose; `None` when no wrench acts (none received within `wrench_timeout_s`).
-    pub fn reported_wrench(&self) -> Option<WrenchStamped> {
-        let (w, link, t) = self.reported?;
+    /// Execute mode: the wrench acting on arm `arm` as `/lwr/external_wrench` reports it —
+    /// stamped now, `header.frame_id` the contact link's frame, force and torque in that
+    /// link's frame at the current pose; `None` when no wrench acts (none received within
+    /// `wrench_timeout_s`).
+    pub fn reported_wrench(&self, arm: usize) -> Option<WrenchStamped> {
+        let (w, link, t) = self.reported[arm]?;
         if self.sim.time_ns() - t > self.wrench_timeout_ns {
             return None;
         }
-        let r = self.sim.link_poses().get(link).rotation;
+        let r = self.sim.arm(arm).link_poses().get(link).rotation;
         let f = r.inverse() * w.force;
         let m = r.inverse() * w.torque;
         Some(WrenchStamped {
-            header: Header { stamp: self.now(), frame_id: self.sim.model().link_names()[link].clone() },
+            header: Header { stamp: self.now(), frame_id: self.sim.arm(arm).frames()[link].clone() },
             wrench: cowork_msgs::geometry_msgs::Wrench {
                 force: Vector3 { x: f.x, y: f.y, z: f.z },
                 torque: Vector3 { x: m.x, y: m.y, z: m.z },
@@ -220,20 +232,31 @@ impl LwrSim {
     /// Any input; what it gave to put out (a warning, the gripper's new state), if anything.
     pub fn on_input(&mut self, input: &Input) -> Option<Output> {
         match input {
-            Input::VelocityCommand(m) => self.on_velocity_command(m).map(Output::Warning),
-            Input::GripperCommand(m) => Some(self.gripper_command(m)),
-            Input::Wrench(m) => self.on_wrench(m).map(Output::Warning),
+            Input::VelocityCommand(arm, m) => self.on_velocity_command(*arm, m).map(Output::Warning),
+            Input::GripperCommand(arm, m) => Some(self.gripper_command(*arm, m)),
+            Input::Wrench(arm, m) => self.on_wrench(*arm, m).map(Output::Warning),
             Input::Skeleton(m) => self.on_skeleton(m).map(Output::Warning),
             Input::PlaceObject(m) => self.on_place_object(m).err().map(Output::Warning),
         }
     }
 
-    /// Applies a joint velocity command; a bad one is refused (the warning says why), and
-    /// the robot is held.
-    pub fn on_velocity_command(&mut self, msg: &Float64MultiArray) -> Option<Warning> {
-        let topic = topics::JOINT_VELOCITY_COMMAND.name;
+    /// The name of `topic` in arm `arm`'s namespace, for warnings.
+    fn arm_topic<T>(&self, topic: &topics::Topic<T>, arm: usize) -> std::borrow::Cow<'static, str> {
+        topic.name_in(&self.namespace(arm))
+    }
+
+    /// The ROS namespace of arm `arm`'s topics: `/` for the one arm of a single-arm scene,
+    /// `/<name>` for a named arm.
+    pub fn namespace(&self, arm: usize) -> String {
+        format!("/{}", self.sim.arm(arm).name())
+    }
+
+    /// Applies a joint velocity command to arm `arm`; a bad one is refused (the warning says
+    /// why), and that arm is held.
+    pub fn on_velocity_command(&mut self, arm: usize, msg: &Float64MultiArray) -> Option<Warning> {
+        let topic = self.arm_topic(&topics::JOINT_VELOCITY_COMMAND, arm);
         self.sim
-            .set_velocity_command(&msg.data)
+            .set_arm_velocity_command(arm, &msg.data)
             .err()
             .map(|e| Warning::new(format!("{topic}:data"), format!("{topic} rejected, robot held: {e}")))
     }
@@ -241,23 +264,23 @@ impl LwrSim {
     /// Opens or closes the gripper on `open` / `close`; anything else is refused (the
     /// warning says why) and changes nothing. ([`on_input`](Self::on_input) also reports
     /// what the gripper closed on.)
-    pub fn on_gripper_command(&mut self, msg: &RosString) -> Option<Warning> {
-        match self.gripper_command(msg) {
+    pub fn on_gripper_command(&mut self, arm: usize, msg: &RosString) -> Option<Warning> {
+        match self.gripper_command(arm, msg) {
             Output::Warning(w) => Some(w),
             _ => None,
         }
     }
 
     /// `/lwr/gripper_command`: [`Output::Gripper`], or the warning.
-    fn gripper_command(&mut self, msg: &RosString) -> Output {
+    fn gripper_command(&mut self, arm: usize, msg: &RosString) -> Output {
         match msg.data.trim().to_ascii_lowercase().as_str() {
-            "close" => Output::Gripper { closed: true, object: self.sim.command_gripper(true).map(str::to_owned) },
+            "close" => Output::Gripper { arm, closed: true, object: self.sim.command_arm_gripper(arm, true).map(str::to_owned) },
             "open" => {
-                self.sim.command_gripper(false);
-                Output::Gripper { closed: false, object: None }
+                self.sim.command_arm_gripper(arm, false);
+                Output::Gripper { arm, closed: false, object: None }
             }
             _ => {
-                let topic = topics::GRIPPER_COMMAND.name;
+                let topic = self.arm_topic(&topics::GRIPPER_COMMAND, arm);
                 Output::Warning(Warning::new(
                     format!("{topic}:data"),
                     format!("{topic}: unknown command {:?} (expected open or close)", cowork_ros::quote(msg.data.trim())),
@@ -269,7 +292,7 @@ impl LwrSim {
     /// Applies an external wrench (see the module docs for its frame); when following wrench
     /// stamps, one stamped in the future waits for its time (the oldest dropped beyond
     /// [`MAX_PENDING_WRENCHES`]). A refused one is a warning.
-    pub fn on_wrench(&mut self, msg: &WrenchStamped) -> Option<Warning> {
+    pub fn on_wrench(&mut self, arm: usize, msg: &WrenchStamped) -> Option<Warning> {
         let now = self.sim.time_ns();
         if let Some(f) = self.follow.as_mut() {
             let stamp = msg.header.stamp.to_nanos();
@@ -278,29 +301,32 @@ impl LwrSim {
                 if f.pending.len() >= MAX_PENDING_WRENCHES {
                     f.pending.pop_front();
                 }
-                f.pending.push_back(msg.clone());
+                f.pending.push_back((arm, msg.clone()));
                 return None;
             }
         }
-        self.apply_wrench(msg)
+        self.apply_wrench(arm, msg)
     }
 
-    fn apply_wrench(&mut self, msg: &WrenchStamped) -> Option<Warning> {
-        let topic = topics::EXTERNAL_WRENCH.name;
+    fn apply_wrench(&mut self, arm: usize, msg: &WrenchStamped) -> Option<Warning> {
+        let topic = self.arm_topic(&topics::EXTERNAL_WRENCH, arm);
+        let frames = self.sim.arm(arm).frames();
+        // A link's frame, as tf names it (`left/lwr_link_3`) or by its model name.
         let frame = msg.header.frame_id.as_str();
+        let index = frames.iter().position(|f| f == frame).or_else(|| self.sim.model().link_index(frame));
         let f = &msg.wrench.force;
         let t = &msg.wrench.torque;
         let mut force = nalgebra::Vector3::new(f.x, f.y, f.z);
         let mut torque = nalgebra::Vector3::new(t.x, t.y, t.z);
-        let link = if frame.is_empty() || frame == self.base_frame {
+        let link = if frame.is_empty() || index == Some(0) {
             None
         } else {
-            match self.sim.model().link_index(frame) {
+            match index {
                 Some(i) => {
-                    let r = self.sim.link_poses().get(i).rotation;
+                    let r = self.sim.arm(arm).link_poses().get(i).rotation;
                     force = r * force;
                     torque = r * torque;
-                    Some(frame)
+                    Some(i)
                 }
                 None => {
                     return Some(Warning::new(
@@ -313,15 +339,16 @@ impl LwrSim {
         if self.wrench_mode == WrenchMode::Execute {
             // Reported, not applied: the arm moves only as the controller commands.
             if let Some((i, v)) = force.iter().chain(torque.iter()).enumerate().find(|(_, v)| !v.is_finite()) {
-                self.reported = None;
+                self.reported[arm] = None;
                 return Some(Warning::new(format!("{topic}:wrench"), format!("{topic} rejected: component {i} is {v}")));
             }
-            let index = link.and_then(|l| self.sim.model().link_index(l)).unwrap_or(self.sim.model().tip_link());
-            self.reported = Some((Wrench { force, torque }, index, self.sim.time_ns()));
+            let index = link.unwrap_or(self.sim.model().tip_link());
+            self.reported[arm] = Some((Wrench { force, torque }, index, self.sim.time_ns()));
             return None;
         }
+        let link = link.map(|i| self.sim.model().link_names()[i].clone());
         self.sim
-            .set_wrench(Wrench { force, torque }, link)
+            .set_arm_wrench(arm, Wrench { force, torque }, link.as_deref())
             .err()
             .map(|e| Warning::new(format!("{topic}:wrench"), format!("{topic} rejected: {e}")))
     }
@@ -373,19 +400,18 @@ impl LwrSim {
         if due.clock {
             out.push(Output::Clock(self.clock()));
         }
+        let arms = self.sim.arms().len();
         if due.joint_states {
-            out.push(Output::JointStates(self.joint_states()));
+            out.extend((0..arms).map(|arm| Output::JointStates(arm, self.joint_states(arm))));
         }
         if due.tf {
             out.push(Output::Tf(self.tf()));
         }
         if due.world {
-            out.push(Output::World(self.world()));
+            out.extend((0..arms).map(|arm| Output::World(arm, self.world(arm))));
         }
-        if due.wrench
-            && let Some(w) = self.reported_wrench()
-        {
-            out.push(Output::ExternalWrench(w));
+        if due.wrench {
+            out.extend((0..arms).filter_map(|arm| Some(Output::ExternalWrench(arm, self.reported_wrench(arm)?))));
         }
         if due.depth && self.config_depth.enabled {
             let mut snap = DepthSnapshot::default();
@@ -416,9 +442,9 @@ impl LwrSim {
         while let Some(w) = self
             .follow
             .as_mut()
-            .and_then(|f| f.pending.front().is_some_and(|w| w.header.stamp.to_nanos() <= now).then(|| f.pending.pop_front()).flatten())
+            .and_then(|f| f.pending.front().is_some_and(|(_, w)| w.header.stamp.to_nanos() <= now).then(|| f.pending.pop_front()).flatten())
         {
-            if let Some(warning) = self.apply_wrench(&w)
+            if let Some(warning) = self.apply_wrench(w.0, &w.1)
                 && self.step_warnings.len() < MAX_STEP_WARNINGS
             {
                 self.step_warnings.push(warning);
@@ -435,7 +461,7 @@ impl LwrSim {
             depth: self.camera_clock.due(self.sim.time_ns()),
             wrench: self.wrench_mode == WrenchMode::Execute
                 && self.steps % self.every_wrench == 0
-                && self.reported.is_some_and(|(_, _, t)| self.sim.time_ns() - t <= self.wrench_timeout_ns),
+                && self.reported.iter().flatten().any(|(_, _, t)| self.sim.time_ns() - t <= self.wrench_timeout_ns),
         }
     }
 
@@ -444,35 +470,45 @@ impl LwrSim {
         Clock { clock: self.now() }
     }
 
-    /// `/joint_states` message at the current time.
-    pub fn joint_states(&mut self) -> JointState {
+    /// `/joint_states` of arm `arm` at the current time (joint names unprefixed).
+    pub fn joint_states(&mut self, arm: usize) -> JointState {
         let stamp = self.now();
-        let q = self.sim.joint_positions();
-        let qd = self.sim.joint_velocities();
-        self.joint_state.header.stamp = stamp;
-        self.joint_state.position.copy_from_slice(q.as_slice());
-        self.joint_state.velocity.copy_from_slice(qd.as_slice());
-        self.joint_state.clone()
+        let a = self.sim.arm(arm);
+        let msg = &mut self.joint_states[arm];
+        msg.header.stamp = stamp;
+        msg.position.copy_from_slice(a.joint_positions().as_slice());
+        msg.velocity.copy_from_slice(a.joint_velocities().as_slice());
+        msg.clone()
+    }
+
+    /// Whether `frame` is the base of a named arm: fixed in the world, so on `/tf_static`.
+    fn is_arm_base(&self, frame: &str) -> bool {
+        self.sim.scene().has_named_arms() && self.sim.arms().iter().any(|a| a.frames()[0] == frame)
     }
 
     /// `/tf`: the frame tree as `robot_state_publisher` publishes it — each link in its parent
-    /// link's frame (one transform per joint) — plus every object in the base frame.
+    /// link's frame (one transform per joint) — plus every object in the root frame (the arm
+    /// bases of a scene with named arms are on `/tf_static`).
     pub fn tf(&self) -> TFMessage {
         let stamp = self.now();
         let transforms = self
             .sim
             .frame_tree()
-            .map(|e| transform(e.parent.unwrap_or(&self.base_frame), e.child, stamp, &e.pose))
+            .filter(|e| !self.is_arm_base(e.child))
+            .map(|e| transform(e.parent.unwrap_or(&self.root_frame), e.child, stamp, &e.pose))
             .collect();
         TFMessage { transforms }
     }
 
-    /// `/lwr/world`: gripper state, held object, tool pose and every object (pose, distance
-    /// from the tool point to its surface, tilt of its z axis from the vertical).
-    pub fn world(&self) -> WorldState {
-        let tool = self.sim.tool_pose();
-        let tool_point = nalgebra::Point3::from(tool.translation.vector);
-        let held = self.sim.held_object();
+    /// `/lwr/world` of arm `arm`, in the arm's base frame: its gripper state, held object, tool
+    /// pose and every object (pose, distance from its tool point to the object's surface, tilt
+    /// of the object's z axis from the world's vertical).
+    pub fn world(&self, arm: usize) -> WorldState {
+        let a = self.sim.arm(arm);
+        let to_base = a.base().inverse();
+        let tool = self.sim.arm_tool_pose(arm);
+        let tool_point = nalgebra::Point3::from(self.sim.world_tool_pose(arm).translation.vector);
+        let held = self.sim.arm_held_object(arm);
         let objects = self
             .sim
             .objects()
@@ -481,7 +517,7 @@ impl LwrSim {
                 let z = o.pose.rotation * nalgebra::Vector3::z();
                 WorldObject {
                     name: o.name.clone(),
-                    pose: pose(&o.pose),
+                    pose: pose(&(to_base * o.pose)),
                     tool_distance: o.distance_to(&tool_point),
                     tilt: z.z.clamp(-1.0, 1.0).acos(),
                     held: held == Some(o.name.as_str()),
@@ -489,8 +525,8 @@ impl LwrSim {
             })
             .collect();
         WorldState {
-            header: Header { stamp: self.now(), frame_id: self.base_frame.clone() },
-            gripper_state: match self.sim.gripper() {
+            header: Header { stamp: self.now(), frame_id: a.frames()[0].clone() },
+            gripper_state: match a.gripper() {
                 GripperState::Open => WorldState::GRIPPER_OPEN,
                 GripperState::Closed { .. } => WorldState::GRIPPER_CLOSED,
             },
@@ -500,17 +536,18 @@ impl LwrSim {
         }
     }
 
-    /// `/tf_static`: the camera's optical frame.
+    /// `/tf_static`: the camera's optical frame, and the base of every named arm, in the root
+    /// frame.
     pub fn tf_static(&self) -> TFMessage {
         let camera = &self.sim.scene().camera;
-        TFMessage {
-            transforms: vec![transform(
-                &self.base_frame,
-                &camera.frame_id,
-                self.now(),
-                &camera.pose.isometry(),
-            )],
-        }
+        let mut transforms = vec![transform(&self.root_frame, &camera.frame_id, self.now(), &camera.pose.isometry())];
+        transforms.extend(
+            self.sim
+                .frame_tree()
+                .filter(|e| self.is_arm_base(e.child))
+                .map(|e| transform(&self.root_frame, e.child, self.now(), &e.pose)),
+        );
+        TFMessage { transforms }
     }
 }
 
@@ -542,6 +579,21 @@ pub(crate) fn absolute_mesh_uris(urdf: &str, dir: &std::path::Path) -> String {
         rest = tail;
     }
     out.push_str(rest);
+    out
+}
+
+/// The URDF `urdf` with every link of `links` renamed `<prefix><link>` (its `<link name=…>`
+/// and the joints' `parent`/`child` references), as robot_state_publisher's `frame_prefix`.
+pub(crate) fn prefix_link_names(urdf: &str, links: &[String], prefix: &str) -> String {
+    let mut out = urdf.to_owned();
+    for link in links {
+        for (from, to) in [
+            (format!("<link name=\"{link}\""), format!("<link name=\"{prefix}{link}\"")),
+            (format!("link=\"{link}\""), format!("link=\"{prefix}{link}\"")),
+        ] {
+            out = out.replace(&from, &to);
+        }
+    }
     out
 }
 

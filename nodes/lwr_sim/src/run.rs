@@ -12,7 +12,7 @@ use cowork_msgs::topics::{self, Delivery};
 use cowork_ros::{DdsSource, Event, InputSource, RosNode, RunOptions, Warnings};
 
 use crate::depth::{DepthCamera, Mailbox};
-use crate::node::{Input, LwrSim, Output, absolute_mesh_uris};
+use crate::node::{Input, LwrSim, Output, absolute_mesh_uris, prefix_link_names};
 use crate::params::WrenchMode;
 
 /// How simulated time relates to the source's (wall) time.
@@ -113,16 +113,20 @@ pub fn run_loop<S: InputSource<Input>>(
 }
 
 impl LwrSim {
-    /// `/robot_description`: the URDF the simulator runs, with each relative mesh path made an
-    /// absolute `file://` URI so RViz's RobotModel and Foxglove's 3D panel on this machine find
-    /// the meshes (`package://` and absolute URIs are left as they are).
-    pub fn robot_description(&self) -> Result<RosString> {
+    /// `/robot_description` of arm `arm`: the URDF the simulator runs, with each relative mesh
+    /// path made an absolute `file://` URI so RViz's RobotModel and Foxglove's 3D panel on this
+    /// machine find the meshes (`package://` and absolute URIs are left as they are). A named
+    /// arm's link names carry its frame prefix (`left/lwr_link_3`), as its tf frames do.
+    pub fn robot_description(&self, arm: usize) -> Result<RosString> {
         let source = self.simulator().model().source();
         let text = std::fs::read_to_string(source)
             .with_context(|| format!("cannot read the robot description {}", source.display()))?;
         let dir = source.parent().unwrap_or(std::path::Path::new("."));
         let dir = std::fs::canonicalize(dir).with_context(|| format!("cannot resolve {}", dir.display()))?;
-        Ok(RosString { data: absolute_mesh_uris(&text, &dir) })
+        let text = absolute_mesh_uris(&text, &dir);
+        let prefix = self.simulator().arm(arm).frames()[0].strip_suffix(&self.simulator().model().link_names()[0]).unwrap_or("");
+        let links = self.simulator().model().link_names();
+        Ok(RosString { data: if prefix.is_empty() { text } else { prefix_link_names(&text, links, prefix) } })
     }
 }
 
@@ -157,24 +161,33 @@ fn depth_worker(
 /// Runs the node until Ctrl-C or `duration` simulated seconds.
 pub fn run(node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>) -> Result<()> {
     let mut source = DdsSource::new(node, RunOptions::default().start())?;
-    source.add(&topics::JOINT_VELOCITY_COMMAND, Input::VelocityCommand)?;
-    source.add(&topics::GRIPPER_COMMAND, Input::GripperCommand)?;
-    // Deep (the topic's 1000): a replayed teacher may send its wrenches ahead of their stamps.
-    source.add(&topics::EXTERNAL_WRENCH, Input::Wrench)?;
+    let arms = lwr.simulator().arms().len();
+    for arm in 0..arms {
+        let ns = lwr.namespace(arm);
+        source.add_in(&topics::JOINT_VELOCITY_COMMAND, &ns, move |m| Input::VelocityCommand(arm, m))?;
+        source.add_in(&topics::GRIPPER_COMMAND, &ns, move |m| Input::GripperCommand(arm, m))?;
+        // Deep (the topic's 1000): a replayed teacher may send its wrenches ahead of their stamps.
+        source.add_in(&topics::EXTERNAL_WRENCH, &ns, move |m| Input::Wrench(arm, m))?;
+    }
     // Best effort matches every writer (reliable bags, best-effort trackers).
     source.add(&topics::SKELETON.reading(Delivery::BestEffort { depth: 20 }), Input::Skeleton)?;
     source.add(&topics::PLACE_OBJECT, Input::PlaceObject)?;
     let node = source.node();
     let clock = node.advertise(&topics::CLOCK)?;
-    let joint_states = node.advertise(&topics::JOINT_STATES)?;
     let tf = node.advertise(&topics::TF)?;
     let tf_static = node.advertise(&topics::TF_STATIC)?;
-    let world = node.advertise(&topics::WORLD)?;
-    let wrench_report = node.advertise(&topics::LWR_EXTERNAL_WRENCH)?;
-    // Latched, as robot_state_publisher's: a viewer that joins later still gets it.
-    let description = node.advertise(&topics::ROBOT_DESCRIPTION)?;
+    let (mut joint_states, mut world, mut wrench_report, mut descriptions) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for arm in 0..arms {
+        let ns = lwr.namespace(arm);
+        joint_states.push(node.advertise_in(&topics::JOINT_STATES, &ns)?);
+        world.push(node.advertise_in(&topics::WORLD, &ns)?);
+        wrench_report.push(node.advertise_in(&topics::LWR_EXTERNAL_WRENCH, &ns)?);
+        // Latched, as robot_state_publisher's: a viewer that joins later still gets it.
+        let description = node.advertise_in(&topics::ROBOT_DESCRIPTION, &ns)?;
+        description.publish(lwr.robot_description(arm)?)?;
+        descriptions.push(description);
+    }
     tf_static.publish(lwr.tf_static())?;
-    description.publish(lwr.robot_description()?)?;
     let camera = if lwr.depth_config().enabled {
         let image = node.advertise(&topics::DEPTH_IMAGE)?;
         let info = node.advertise(&topics::DEPTH_CAMERA_INFO)?;
@@ -191,7 +204,9 @@ pub fn run(node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>
         None
     };
     tracing::info!(
-        "lwr_sim running: {} joints, {} objects, pacing {pacing:?}, {}: {}",
+        "lwr_sim running: {} arm(s) ({}) of {} joints, {} objects, pacing {pacing:?}, {}: {}",
+        arms,
+        (0..arms).map(|a| lwr.namespace(a)).collect::<Vec<_>>().join(", "),
         lwr.simulator().model().joint_names().len(),
         lwr.simulator().objects().len(),
         topics::EXTERNAL_WRENCH.name,
@@ -203,6 +218,8 @@ pub fn run(node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>
         }
     );
 
+    let names: Vec<String> = lwr.simulator().arms().iter().map(|a| a.name().to_owned()).collect();
+    let arm_label = |arm: usize| if names[arm].is_empty() { String::new() } else { format!("{}: ", names[arm]) };
     let mut warnings = Warnings::new(WARNING_REPEAT_S);
     let started_s = cowork_ros::monotonic_s();
     let mut last_report_s = started_s;
@@ -224,26 +241,26 @@ pub fn run(node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>
                 }
                 clock.send(m)
             }
-            Output::JointStates(m) => joint_states.send(m),
+            Output::JointStates(arm, m) => joint_states[arm].send(m),
             Output::Tf(m) => tf.send(m),
-            Output::World(m) => world.send(m),
-            Output::ExternalWrench(m) => wrench_report.send(m),
+            Output::World(arm, m) => world[arm].send(m),
+            Output::ExternalWrench(arm, m) => wrench_report[arm].send(m),
             Output::Depth(snap) => {
                 if let Some((mailbox, _)) = &camera {
                     mailbox.post_snapshot(*snap);
                 }
                 None
             }
-            Output::Gripper { closed: true, object: Some(name) } => {
-                tracing::info!("gripper closed on {name}");
+            Output::Gripper { arm, closed: true, object: Some(name) } => {
+                tracing::info!("{}gripper closed on {name}", arm_label(arm));
                 None
             }
-            Output::Gripper { closed: true, object: None } => {
-                tracing::info!("gripper closed on nothing (no object within reach)");
+            Output::Gripper { arm, closed: true, object: None } => {
+                tracing::info!("{}gripper closed on nothing (no object within reach)", arm_label(arm));
                 None
             }
-            Output::Gripper { closed: false, .. } => {
-                tracing::info!("gripper open");
+            Output::Gripper { arm, closed: false, .. } => {
+                tracing::info!("{}gripper open", arm_label(arm));
                 None
             }
             Output::Warning(w) => Some(w),

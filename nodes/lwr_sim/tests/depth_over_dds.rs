@@ -53,7 +53,7 @@ fn wait<T: cowork_msgs::RosMessage>(sub: &Subscription<T>, timeout: Duration) ->
 fn local_render() -> (DepthRenderer, DepthImage, JointVector, Scene) {
     let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).unwrap();
     let scene = Scene::from_file(&root().join("config/scenes/stacking.yaml")).unwrap();
-    let q = JointVector::from_iterator(scene.robot.initial_joints_deg.iter().map(|d| d.to_radians()));
+    let q = JointVector::from_iterator(scene.initial_joints_deg().iter().map(|d| d.to_radians()));
     let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
     let mut r = DepthRenderer::new(&model, &scene).unwrap();
     let depth = lwr_sim::depth::DepthConfig::default();

@@ -40,15 +40,15 @@ fn node() -> LwrSim {
 }
 
 fn velocity(q: [f64; 7]) -> Input {
-    Input::VelocityCommand(Float64MultiArray { data: q.to_vec(), ..Default::default() })
+    Input::VelocityCommand(0, Float64MultiArray { data: q.to_vec(), ..Default::default() })
 }
 
 fn gripper(word: &str) -> Input {
-    Input::GripperCommand(RosString { data: word.into() })
+    Input::GripperCommand(0, RosString { data: word.into() })
 }
 
 fn push(frame: &str, f: [f64; 3], stamp_s: f64) -> Input {
-    Input::Wrench(WrenchStamped {
+    Input::Wrench(0, WrenchStamped {
         header: Header { frame_id: frame.into(), stamp: Time::from_nanos((stamp_s * 1e9) as i64) },
         wrench: RosWrench { force: Vector3 { x: f[0], y: f[1], z: f[2] }, torque: Vector3::default() },
     })
@@ -94,7 +94,7 @@ fn warnings(outputs: &[Output]) -> Vec<&cowork_ros::Warning> {
 }
 
 fn joint_positions(outputs: &[Output]) -> Vec<Vec<f64>> {
-    outputs.iter().filter_map(|o| if let Output::JointStates(m) = o { Some(m.position.clone()) } else { None }).collect()
+    outputs.iter().filter_map(|o| if let Output::JointStates(_, m) = o { Some(m.position.clone()) } else { None }).collect()
 }
 
 /// Commands move the arm, the gripper closes and opens, a person appears in the depth
@@ -127,7 +127,7 @@ fn commands_gripper_person_and_placement_golden() {
     assert_eq!(people.first(), Some(&0));
     assert!(people.iter().any(|n| *n > 0), "the person is drawn after the skeleton: {people:?}");
     let bottle_moved = outputs.iter().any(|o| {
-        matches!(o, Output::World(w) if w.objects.iter().any(|b| b.name == "bottle" && (b.pose.position.x - 0.9).abs() < 1e-9))
+        matches!(o, Output::World(_, w) if w.objects.iter().any(|b| b.name == "bottle" && (b.pose.position.x - 0.9).abs() < 1e-9))
     });
     assert!(bottle_moved, "/lwr/world shows the placed bottle");
     assert_golden(&golden("normal"), &lines);
@@ -140,7 +140,7 @@ fn bad_inputs_golden() {
     let mut lwr = node();
     let script = vec![
         (0.0, velocity([f64::NAN; 7])),
-        (0.01, Input::VelocityCommand(Float64MultiArray { data: vec![0.1; 3], ..Default::default() })),
+        (0.01, Input::VelocityCommand(0, Float64MultiArray { data: vec![0.1; 3], ..Default::default() })),
         (0.02, gripper("grab it")),
         (0.03, gripper(&"x".repeat(100_000))),
         (0.04, push("no_such_frame", [50.0, 0.0, 0.0], 0.0)),
@@ -158,7 +158,7 @@ fn bad_inputs_golden() {
         (0.09, place(&"b".repeat(100_000), [0.5, 0.0, 0.3], 1.0)),
         (0.1, place("bottle", [f64::NAN, 0.0, 0.3], 1.0)),
     ];
-    let world_before = lwr.world();
+    let world_before = lwr.world(0);
     let (lines, outputs, summary) = play(&mut lwr, script, 0.2);
     let kinds: Vec<&str> = warnings(&outputs).iter().map(|w| w.kind.as_str()).collect();
     assert_eq!(
@@ -181,7 +181,7 @@ fn bad_inputs_golden() {
     assert!(warnings(&outputs).iter().all(|w| w.message.len() < 1000), "peer text is quoted as a prefix");
     let q = joint_positions(&outputs);
     assert!(q.windows(2).all(|w| w[0] == w[1]), "nothing moved the arm");
-    let world_after = lwr.world();
+    let world_after = lwr.world(0);
     for (a, b) in world_before.objects.iter().zip(&world_after.objects) {
         assert_eq!((&a.name, &a.pose), (&b.name, &b.pose), "refused placements change nothing");
     }
@@ -198,7 +198,7 @@ fn execute_mode_reports_the_push_golden() {
     let script: Vec<(f64, Input)> = (0..10).map(|k| (0.01 * k as f64, push("lwr_link_4", [0.0, 0.0, 20.0], 0.0))).collect();
     let (lines, outputs, _) = play(&mut lwr, script, 0.3);
     let reports: Vec<&WrenchStamped> =
-        outputs.iter().filter_map(|o| if let Output::ExternalWrench(w) = o { Some(w) } else { None }).collect();
+        outputs.iter().filter_map(|o| if let Output::ExternalWrench(_, w) = o { Some(w) } else { None }).collect();
     assert!(reports.iter().all(|w| w.header.frame_id == "lwr_link_4"));
     let last = reports.last().expect("reports").header.stamp.to_secs_f64();
     assert!((0.18..=0.2).contains(&last), "reports end wrench_timeout_s after the last push: {last}");

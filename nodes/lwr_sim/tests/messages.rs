@@ -37,7 +37,7 @@ fn topics_are_due_at_their_rates_and_stamped_with_sim_time() {
     assert_eq!((clock, joints, tf), (1000, 1000, 50));
     let c = n.clock();
     assert_eq!((c.clock.sec, c.clock.nanosec), (1, 0));
-    let js = n.joint_states();
+    let js = n.joint_states(0);
     assert_eq!(js.header.stamp, c.clock);
     assert_eq!(js.name.len(), 7);
 }
@@ -46,7 +46,7 @@ fn topics_are_due_at_their_rates_and_stamped_with_sim_time() {
 fn tf_is_the_link_tree_plus_objects_and_the_camera_is_static() {
     let mut n = node();
     // Move every joint so a wrong parent or an inverted transform shows.
-    n.on_velocity_command(&Float64MultiArray { data: vec![0.3, -0.2, 0.4, 0.3, -0.5, 0.2, 0.6], ..Default::default() });
+    n.on_velocity_command(0, &Float64MultiArray { data: vec![0.3, -0.2, 0.4, 0.3, -0.5, 0.2, 0.6], ..Default::default() });
     for _ in 0..200 {
         n.step();
     }
@@ -97,14 +97,14 @@ fn tf_is_the_link_tree_plus_objects_and_the_camera_is_static() {
 fn bad_messages_are_ignored_and_the_robot_is_held() {
     let mut n = node();
     let q0 = *n.simulator().joint_positions();
-    n.on_velocity_command(&Float64MultiArray { data: vec![0.5; 7], ..Default::default() });
-    n.on_velocity_command(&Float64MultiArray { data: vec![f64::NAN; 7], ..Default::default() });
-    n.on_gripper_command(&RosString { data: "grab it".into() });
-    n.on_wrench(&WrenchStamped {
+    n.on_velocity_command(0, &Float64MultiArray { data: vec![0.5; 7], ..Default::default() });
+    n.on_velocity_command(0, &Float64MultiArray { data: vec![f64::NAN; 7], ..Default::default() });
+    n.on_gripper_command(0, &RosString { data: "grab it".into() });
+    n.on_wrench(0, &WrenchStamped {
         header: Header { frame_id: "no_such_frame".into(), ..Default::default() },
         wrench: RosWrench { force: Vector3 { x: 50.0, y: 0.0, z: 0.0 }, ..Default::default() },
     });
-    n.on_wrench(&WrenchStamped {
+    n.on_wrench(0, &WrenchStamped {
         wrench: RosWrench { force: Vector3 { x: f64::INFINITY, y: 0.0, z: 0.0 }, ..Default::default() },
         ..Default::default()
     });
@@ -121,7 +121,7 @@ fn wrench_in_a_link_frame_is_rotated_into_the_base_frame() {
     let p0 = n.simulator().tool_pose().translation.vector;
     let tool_link = n.simulator().model().link_names()[n.simulator().model().tip_link()].clone();
     for _ in 0..100 {
-        n.on_wrench(&WrenchStamped {
+        n.on_wrench(0, &WrenchStamped {
             header: Header { frame_id: tool_link.clone(), ..Default::default() },
             wrench: RosWrench { force: Vector3 { x: 0.0, y: 0.0, z: 10.0 }, ..Default::default() },
         });
@@ -151,7 +151,7 @@ fn world_reports_what_the_simulator_holds_and_where_objects_are() {
         world += n.step().world as u32;
     }
     assert_eq!(world, 100, "/lwr/world at 100 Hz of simulated time");
-    let w = n.world();
+    let w = n.world(0);
     assert_eq!(w.header.frame_id, "lwr_base_link");
     assert_eq!((w.header.stamp.sec, w.header.stamp.nanosec), (1, 0));
     assert_eq!(w.gripper_state, cowork_msgs::msg::WorldState::GRIPPER_OPEN);
@@ -166,8 +166,8 @@ fn world_reports_what_the_simulator_holds_and_where_objects_are() {
     assert!((bottle.tool_distance - sim.objects()[0].distance_to(&tool)).abs() < 1e-12);
     assert!((w.tool_pose.position.x - tool.x).abs() < 1e-12);
     // Closing the gripper far from everything holds nothing: the state says closed, no object.
-    n.on_gripper_command(&RosString { data: "close".into() });
-    let w = n.world();
+    n.on_gripper_command(0, &RosString { data: "close".into() });
+    let w = n.world(0);
     assert_eq!(w.gripper_state, cowork_msgs::msg::WorldState::GRIPPER_CLOSED);
     assert!(w.held_object.is_empty() && w.objects.iter().all(|o| !o.held));
 }
@@ -184,8 +184,8 @@ fn following_wrench_stamps_applies_each_at_its_time_and_waits_for_the_teacher() 
     assert!(!n.waiting_for_wrench(), "free until the first wrench");
     let z0 = n.simulator().tool_pose().translation.z;
     // A push up stamped 0.05 s ahead waits: nothing moves before its time.
-    n.on_wrench(&push(0.05, 20.0));
-    n.on_wrench(&push(0.10, 20.0));
+    n.on_wrench(0, &push(0.05, 20.0));
+    n.on_wrench(0, &push(0.10, 20.0));
     for _ in 0..49 {
         n.step();
     }
@@ -196,14 +196,14 @@ fn following_wrench_stamps_applies_each_at_its_time_and_waits_for_the_teacher() 
     // The clock stops at the newest stamp (0.10 s) until the teacher sends more.
     assert_eq!(n.simulator().time_ns(), 100_000_000);
     assert!(n.simulator().tool_pose().translation.z > z0 + 1e-4, "pushed up from 0.05 s");
-    n.on_wrench(&push(0.2, 0.0));
+    n.on_wrench(0, &push(0.2, 0.0));
     assert!(!n.waiting_for_wrench());
 }
 
 #[test]
 fn robot_description_is_the_urdf_with_meshes_a_viewer_can_open() {
     let n = node();
-    let urdf = n.robot_description().expect("robot description").data;
+    let urdf = n.robot_description(0).expect("robot description").data;
     assert!(urdf.contains("<robot") && urdf.contains("lwr_link_7"), "the URDF text");
     let meshes: Vec<&str> = urdf.split("filename=\"").skip(1).filter_map(|t| t.split('"').next()).collect();
     assert!(meshes.len() >= 8, "{meshes:?}");

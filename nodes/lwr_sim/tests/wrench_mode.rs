@@ -39,10 +39,10 @@ fn run(n: &mut LwrSim, w: &WrenchStamped) -> (f64, Vec<WrenchStamped>) {
     let mut reports = Vec::new();
     for k in 0..500 {
         if k % 10 == 0 {
-            n.on_wrench(w);
+            n.on_wrench(0, w);
         }
         if n.step().wrench {
-            reports.extend(n.reported_wrench());
+            reports.extend(n.reported_wrench(0));
         }
     }
     ((n.simulator().joint_positions() - q0).norm(), reports)

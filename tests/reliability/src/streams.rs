@@ -115,9 +115,9 @@ fn lwr_sim_target(root: &Path, bag: &[(String, Vec<u8>)], model: RobotModel) -> 
         check: Box::new(move |b| {
             let Some((k, cdr)) = split(b, 4) else { return Verdict::Refused };
             let decoded = match k {
-                0 => from_cdr::<Float64MultiArray>(cdr).map(|m| node.on_velocity_command(&m)),
-                1 => from_cdr::<RosString>(cdr).map(|m| node.on_gripper_command(&m)),
-                2 => from_cdr::<WrenchStamped>(cdr).map(|m| node.on_wrench(&m)),
+                0 => from_cdr::<Float64MultiArray>(cdr).map(|m| node.on_velocity_command(0, &m)),
+                1 => from_cdr::<RosString>(cdr).map(|m| node.on_gripper_command(0, &m)),
+                2 => from_cdr::<WrenchStamped>(cdr).map(|m| node.on_wrench(0, &m)),
                 _ => from_cdr::<Skeleton>(cdr).map(|m| node.on_skeleton(&m)),
             };
             for _ in 0..10 {

@@ -9,7 +9,7 @@ use crate::{BagError, RawMessage, Result, check_image};
 /// The type the cowork graph expects on `topic`, if it is one of the graph's topics
 /// ([`cowork_msgs::topics::all`], SPEC "Graph, topics, messages").
 pub fn graph_topic_type(topic: &str) -> Option<String> {
-    cowork_msgs::topics::all().into_iter().find(|(t, _, _)| *t == topic).map(|(_, ty, _)| ty)
+    cowork_msgs::topics::find(topic).map(|(_, ty, _)| ty)
 }
 
 /// Whether `a` and `b` name the same ROS type (`pkg/msg/Name`, `pkg/Name` or DDS spelling).

@@ -76,9 +76,13 @@ fn main() -> Result<()> {
     let args = Args::parse();
     let model = RobotModel::from_urdf_file(&args.urdf).with_context(|| format!("loading {}", args.urdf.display()))?;
     let scene = Scene::from_file(&args.scene).with_context(|| format!("loading {}", args.scene.display()))?;
-    let q_deg = args.q_deg.clone().unwrap_or_else(|| scene.robot.initial_joints_deg.clone());
-    anyhow::ensure!(q_deg.len() == 7, "need 7 joint positions, got {}", q_deg.len());
-    let q = JointVector::from_iterator(q_deg.iter().map(|d| d.to_radians()));
+    // Every arm of the scene at its initial joints; `--q-deg` sets the first arm's.
+    let mut arms = Vec::new();
+    for (i, arm) in scene.arm_setups().into_iter().enumerate() {
+        let q_deg = if i == 0 { args.q_deg.clone().unwrap_or(arm.initial_joints_deg) } else { arm.initial_joints_deg };
+        anyhow::ensure!(q_deg.len() == 7, "need 7 joint positions, got {}", q_deg.len());
+        arms.push((arm.base.isometry(), JointVector::from_iterator(q_deg.iter().map(|d| d.to_radians()))));
+    }
     let mut renderer = DepthRenderer::new(&model, &scene)?;
     if args.noise {
         renderer.set_noise(Some(KinectNoise::with_seed(args.seed)))?;
@@ -88,7 +92,7 @@ fn main() -> Result<()> {
     let people = if args.person { person(Point3::new(0.6, 0.95, -0.75), Point3::new(0.55, 0.35, 0.3)) } else { Vec::new() };
     let mut depth = DepthImage::default();
     let t = Instant::now();
-    renderer.render(&q, &objects, &people, &mut depth)?;
+    renderer.render_arms(&arms, &objects, &people, &mut depth)?;
     let elapsed = t.elapsed();
     if let Some(dir) = args.out.parent() {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

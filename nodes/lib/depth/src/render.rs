@@ -354,8 +354,28 @@ impl DepthRenderer {
     /// Labels of objects and people are their indices in these slices. Fails, leaving `out`
     /// untouched, on a non-finite joint position, object pose or size, or bad capsule.
     pub fn render<O: ObjectView>(&mut self, q: &JointVector, objects: &[O], people: &[Capsule], out: &mut DepthImage) -> Result<()> {
-        if let Some((i, v)) = q.iter().enumerate().find(|(_, v)| !v.is_finite()) {
-            return Err(Error::bad_value(format!("q[{i}]"), v, "joint position must be finite"));
+        self.render_arms(&[(Isometry3::identity(), *q)], objects, people, out)
+    }
+
+    /// [`render`](Self::render) with several arms of the model: each `(base, q)` is an arm
+    /// whose base frame is at `base` (in the frame of the camera pose and the objects) at joint
+    /// positions `q` (rad). Every arm's pixels are labelled [`Label::Link`] with the link's
+    /// model index.
+    pub fn render_arms<O: ObjectView>(
+        &mut self,
+        arms: &[(Isometry3<f64>, JointVector)],
+        objects: &[O],
+        people: &[Capsule],
+        out: &mut DepthImage,
+    ) -> Result<()> {
+        for (a, (base, q)) in arms.iter().enumerate() {
+            let at = |field: String| if arms.len() == 1 { field } else { format!("arms[{a}].{field}") };
+            if let Some((i, v)) = q.iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                return Err(Error::bad_value(at(format!("q[{i}]")), v, "joint position must be finite"));
+            }
+            if !pose_is_finite(base) {
+                return Err(Error::bad_value(at("base".into()), format!("{base:?}"), "must be finite"));
+            }
         }
         for (i, c) in people.iter().enumerate() {
             c.validate().map_err(|e| match e {
@@ -375,7 +395,7 @@ impl DepthRenderer {
             return Err(Error::bad_value("objects/people", objects.len().max(people.len()), "at most 65535 of each"));
         }
 
-        self.build_draw_list(q, objects, people);
+        self.build_draw_list(arms, objects, people);
         self.rasterise();
         let (w, h) = (self.intrinsics.width, self.intrinsics.height);
         if out.width != w || out.height != h || out.data.len() != self.clean.data.len() {
@@ -402,14 +422,15 @@ impl DepthRenderer {
         Ok(())
     }
 
-    fn build_draw_list<O: ObjectView>(&mut self, q: &JointVector, objects: &[O], people: &[Capsule]) {
+    fn build_draw_list<O: ObjectView>(&mut self, arms: &[(Isometry3<f64>, JointVector)], objects: &[O], people: &[Capsule]) {
         let k = self.intrinsics;
         let cam = self.camera_from_base;
         self.list.clear();
-        if self.layers.robot {
+        let robot = self.layers.robot;
+        for (base, q) in arms.iter().filter(|_| robot) {
             self.model.forward_kinematics(q, &mut self.poses);
             for mesh in &self.links {
-                let to_cam = cam * self.poses.get(mesh.link);
+                let to_cam = cam * base * self.poses.get(mesh.link);
                 self.scratch.clear();
                 self.scratch.extend(mesh.vertices.iter().map(|v| to_cam * v));
                 let label = Label::Link(mesh.link as u16);

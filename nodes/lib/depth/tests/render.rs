@@ -259,7 +259,7 @@ fn robot_pixels_lie_on_their_links(q: JointVector) {
 #[test]
 fn robot_pixels_match_forward_kinematics_at_start() {
     let scene = common::scene("stacking.yaml");
-    let q = JointVector::from_iterator(scene.robot.initial_joints_deg.iter().map(|d| d.to_radians()));
+    let q = JointVector::from_iterator(scene.initial_joints_deg().iter().map(|d| d.to_radians()));
     robot_pixels_lie_on_their_links(q);
 }
 

@@ -31,7 +31,7 @@ fn main() -> anyhow::Result<()> {
     let args = Args::parse();
     let model = RobotModel::from_urdf_file(&args.urdf).with_context(|| format!("loading {}", args.urdf.display()))?;
     let scene = Scene::from_file(&args.scene).with_context(|| format!("loading {}", args.scene.display()))?;
-    let q = JointVector::from_iterator(scene.robot.initial_joints_deg.iter().map(|d| d.to_radians()));
+    let q = JointVector::from_iterator(scene.initial_joints_deg().iter().map(|d| d.to_radians()));
     let objects: Vec<_> = scene.objects.iter().map(|o| (o.shape, o.pose.isometry())).collect();
     let mut renderer = DepthRenderer::new(&model, &scene)?;
     let room = Room::default();

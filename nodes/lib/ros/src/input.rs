@@ -123,6 +123,20 @@ impl<I: 'static> DdsSource<I> {
         Ok(())
     }
 
+    /// Like [`add`](Self::add) for `topic` in `namespace` ([`crate::RosNode::subscribe_in`]),
+    /// e.g. one arm's `/left/joint_states` in a node that serves several arms.
+    pub fn add_in<T: RosMessage>(
+        &mut self,
+        topic: &cowork_msgs::topics::Topic<T>,
+        namespace: &str,
+        wrap: impl Fn(T) -> I + Send + 'static,
+    ) -> Result<()> {
+        let mut sub = self.node.subscribe_in(topic, namespace)?;
+        self.waits.add(&mut sub)?;
+        self.takers.push(Box::new(move || sub.take().map(&wrap)));
+        Ok(())
+    }
+
     /// The node, to create publishers and read its clock.
     pub fn node(&mut self) -> &mut crate::RosNode {
         &mut self.node

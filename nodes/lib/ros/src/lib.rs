@@ -13,7 +13,10 @@
 //! - [`security`]: DDS Security (SROS2 keystores, `ROS_SECURITY_*`) for every node;
 //! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop;
 //! - [`raw`]: untyped publishers / subscriptions of serialised CDR payloads named only by their
-//!   type string (bag record and replay of types we do not know).
+//!   type string (bag record and replay of types we do not know);
+//! - [`node_main`] / [`NodeArgs`]: a node binary's start-up, which understands ROS 2's
+//!   `--ros-args -r __ns:=/left -r __node:=NAME` ([`split_ros_args`]), so one binary runs per arm
+//!   in the arm's namespace (see [`cowork_msgs::topics`] for which topics are per arm).
 //!
 //! ```no_run
 //! use cowork_msgs::std_msgs::String as RosString;
@@ -63,7 +66,9 @@ pub fn init_logging() {
 
 /// The start-up every node binary shares once its own parameters are loaded: checks
 /// `--duration` (s; positive and finite when given), installs the Ctrl-C / SIGTERM handler
-/// ([`shutdown::install`]) and joins the graph as `name`.
+/// ([`shutdown::install`]) and joins the graph as `name` in the root namespace, or as the
+/// command line's `--ros-args` ([`ros_args`]) say: `-r __node:=NAME` renames the node,
+/// `-r __ns:=/left` puts it (and its per-arm topics) in `/left`.
 pub fn start_node(name: &str, use_sim_time: bool, duration_s: Option<f64>) -> anyhow::Result<RosNode> {
     if let Some(d) = duration_s
         && !(d.is_finite() && d > 0.0)
@@ -71,11 +76,168 @@ pub fn start_node(name: &str, use_sim_time: bool, duration_s: Option<f64>) -> an
         anyhow::bail!("--duration {d}: must be a positive number of seconds");
     }
     shutdown::install();
-    RosNode::new(name, &NodeConfig { use_sim_time, ..NodeConfig::default() })
+    let ros = ros_args();
+    let name = ros.node_name.as_deref().unwrap_or(name);
+    let namespace = ros.namespace.clone().unwrap_or_else(|| "/".to_owned());
+    let node = RosNode::new(name, &NodeConfig { namespace, use_sim_time, ..NodeConfig::default() })?;
+    if ros.namespace.is_some() {
+        tracing::info!("joined the graph as {}", node.fully_qualified_name());
+    }
+    Ok(node)
+}
+
+/// What a node's `--ros-args` section set ([`split_ros_args`]); `None`: not given.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RosArgs {
+    /// `-r __ns:=NS`: the node's namespace, `/` or absolute (`/left`).
+    pub namespace: Option<String>,
+    /// `-r __node:=NAME` (or rcl's older `__name`): the node's name instead of the binary's.
+    pub node_name: Option<String>,
+}
+
+/// The `--ros-args` of this process, set once by [`node_main`].
+static ROS_ARGS: std::sync::OnceLock<RosArgs> = std::sync::OnceLock::new();
+
+/// The `--ros-args` [`node_main`] found on this process's command line; none (the root
+/// namespace, the binary's own node name) in a process that did not start through it.
+pub fn ros_args() -> &'static RosArgs {
+    static NONE: RosArgs = RosArgs { namespace: None, node_name: None };
+    ROS_ARGS.get().unwrap_or(&NONE)
+}
+
+/// What [`split_ros_args`] understands, for its errors.
+const SUPPORTED_ROS_ARGS: &str = "cowork nodes understand only `-r __ns:=/NS` and `-r __node:=NAME` (also as `--remap`)";
+
+/// Takes the ROS 2 arguments out of a command line (`args[0]` is the program): every
+/// `--ros-args` section, up to a lone `--` (which ends it and is dropped) or the end, as rcl
+/// reads them. The rest comes back in order, for clap. Understood: `-r`/`--remap` `__ns:=NS`
+/// (an absolute namespace, `/left`) and `__node:=NAME` (`__name:=NAME`); a later one wins.
+/// Anything else in a section (`-p`, `--params-file`, a topic remapping, a node-targeted
+/// `NODE:__ns:=...`) is an error naming it: a node must not run with an argument it ignored.
+pub fn split_ros_args(args: Vec<std::ffi::OsString>) -> anyhow::Result<(Vec<std::ffi::OsString>, RosArgs)> {
+    let mut rest = Vec::with_capacity(args.len());
+    let mut ros = RosArgs::default();
+    let mut args = args.into_iter();
+    rest.extend(args.next());
+    let mut in_section = false;
+    while let Some(arg) = args.next() {
+        if !in_section {
+            if arg == "--ros-args" {
+                in_section = true;
+            } else {
+                rest.push(arg);
+            }
+            continue;
+        }
+        let Some(text) = arg.to_str() else {
+            anyhow::bail!("--ros-args: argument {arg:?} is not UTF-8; {SUPPORTED_ROS_ARGS}");
+        };
+        match text {
+            "--" => in_section = false,
+            "--ros-args" => {}
+            "-r" | "--remap" => {
+                let rule = args.next().ok_or_else(|| anyhow::anyhow!("--ros-args: {text} needs a rule, e.g. `{text} __ns:=/left`"))?;
+                let Some(rule) = rule.to_str() else {
+                    anyhow::bail!("--ros-args: remapping rule {rule:?} is not UTF-8");
+                };
+                remap(&mut ros, rule)?;
+            }
+            other => anyhow::bail!("--ros-args: unsupported ROS argument `{other}`; {SUPPORTED_ROS_ARGS}"),
+        }
+    }
+    Ok((rest, ros))
+}
+
+/// Applies one `-r FROM:=TO` rule of a `--ros-args` section to `ros`.
+fn remap(ros: &mut RosArgs, rule: &str) -> anyhow::Result<()> {
+    match rule.split_once(":=") {
+        Some(("__ns", namespace)) => {
+            node::validate_namespace(namespace).map_err(|e| anyhow::anyhow!("--ros-args -r {rule}: {e}"))?;
+            ros.namespace = Some(namespace.to_owned());
+        }
+        Some(("__node" | "__name", name)) => {
+            if !node::is_name_token(name) {
+                anyhow::bail!("--ros-args -r {rule}: invalid node name {name:?} (ASCII letters, digits and _, not starting with a digit)");
+            }
+            ros.node_name = Some(name.to_owned());
+        }
+        _ => anyhow::bail!("--ros-args: unsupported remapping rule `{rule}`; {SUPPORTED_ROS_ARGS}"),
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod ros_args_tests {
+    use super::{RosArgs, split_ros_args};
+    use std::ffi::OsString;
+
+    fn split(args: &[&str]) -> anyhow::Result<(Vec<String>, RosArgs)> {
+        let (rest, ros) = split_ros_args(args.iter().map(OsString::from).collect())?;
+        Ok((rest.into_iter().map(|a| a.into_string().expect("UTF-8")).collect(), ros))
+    }
+
+    fn ros(namespace: Option<&str>, node_name: Option<&str>) -> RosArgs {
+        RosArgs { namespace: namespace.map(str::to_owned), node_name: node_name.map(str::to_owned) }
+    }
+
+    #[test]
+    fn without_ros_args_everything_goes_to_clap() {
+        let args = ["ds_controller", "--params", "x.yaml", "--", "--ros-args-like"];
+        assert_eq!(split(&args).unwrap(), (args.map(str::to_owned).to_vec(), RosArgs::default()));
+        assert_eq!(split(&[]).unwrap(), (vec![], RosArgs::default()));
+    }
+
+    #[test]
+    fn namespace_and_node_name_are_taken_out() {
+        let (rest, ros_args) =
+            split(&["ds_controller", "--use-sim-time", "--ros-args", "-r", "__ns:=/left", "--remap", "__node:=left_ds"]).unwrap();
+        assert_eq!(rest, ["ds_controller", "--use-sim-time"]);
+        assert_eq!(ros_args, ros(Some("/left"), Some("left_ds")));
+        // rcl's older spelling of __node, the root namespace, and a later rule winning.
+        let (_, ros_args) = split(&["n", "--ros-args", "-r", "__ns:=/a", "-r", "__name:=b", "-r", "__ns:=/"]).unwrap();
+        assert_eq!(ros_args, ros(Some("/"), Some("b")));
+    }
+
+    #[test]
+    fn a_lone_double_dash_ends_the_section() {
+        let (rest, ros_args) =
+            split(&["fded_distance", "--ros-args", "-r", "__ns:=/right", "--", "--params", "p.yaml", "--ros-args", "-r", "__node:=f", "--"]).unwrap();
+        assert_eq!(rest, ["fded_distance", "--params", "p.yaml"]);
+        assert_eq!(ros_args, ros(Some("/right"), Some("f")));
+    }
+
+    #[test]
+    fn other_ros_arguments_are_refused_by_name() {
+        for (args, named) in [
+            (&["n", "--ros-args", "--params-file", "p.yaml"][..], "`--params-file`"),
+            (&["n", "--ros-args", "-p", "use_sim_time:=true"][..], "`-p`"),
+            (&["n", "--ros-args", "-r", "joint_states:=/js"][..], "`joint_states:=/js`"),
+            (&["n", "--ros-args", "-r", "ds:__ns:=/left"][..], "`ds:__ns:=/left`"),
+            (&["n", "--ros-args", "-r"][..], "-r needs a rule"),
+        ] {
+            let e = split(args).expect_err(named).to_string();
+            assert!(e.contains(named), "{e}");
+            assert!(!e.contains('\n'), "one line: {e}");
+            if !named.contains("needs") {
+                assert!(e.contains("__ns:=/NS") && e.contains("__node:=NAME"), "says what is supported: {e}");
+            }
+        }
+    }
+
+    #[test]
+    fn bad_namespaces_and_node_names_are_refused() {
+        for bad in ["left", "/left/", "/9left", "/le-ft", ""] {
+            let e = split(&["n", "--ros-args", "-r", &format!("__ns:={bad}")]).expect_err(bad).to_string();
+            assert!(e.contains(&format!("invalid ROS namespace {bad:?}")), "{e}");
+        }
+        let e = split(&["n", "--ros-args", "-r", "__node:=ds-left"]).expect_err("bad name").to_string();
+        assert!(e.contains("invalid node name \"ds-left\""), "{e}");
+    }
 }
 
 /// The command-line options every node binary shares; flatten them into its clap `Args`
-/// (`#[command(flatten)] node: cowork_ros::NodeArgs`).
+/// (`#[command(flatten)] node: cowork_ros::NodeArgs`). ROS 2's `--ros-args` section is not
+/// clap's: [`node_main`] takes it out first ([`split_ros_args`]) and [`NodeArgs::start`] uses it.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct NodeArgs {
     /// Take time from `/clock` (overrides `use_sim_time: false` in the parameter file).
@@ -93,20 +255,30 @@ impl NodeArgs {
         Ok((params::load(path, node)?, path.display().to_string()))
     }
 
-    /// Joins the graph as `name` ([`start_node`]): sim time when the parameter file or
-    /// `--use-sim-time` asks for it; returns the node and the [`RunOptions`] of `--duration`.
+    /// Joins the graph as `name` ([`start_node`]; renamed and namespaced by `--ros-args`): sim
+    /// time when the parameter file or `--use-sim-time` asks for it; returns the node and the
+    /// [`RunOptions`] of `--duration`.
     pub fn start(&self, name: &str, use_sim_time: bool) -> anyhow::Result<(RosNode, RunOptions)> {
         let node = start_node(name, use_sim_time || self.use_sim_time, self.duration)?;
         Ok((node, RunOptions::for_duration(self.duration)))
     }
 }
 
-/// A node binary's `main`: logging to stderr, the command line parsed into `A` (clap's
-/// usage errors and `--help` as usual), then `run`, ending as [`exit_code`] says (one line
-/// `error: ...` on failure, a backtrace only with `RUST_BACKTRACE=1`).
+/// A node binary's `main`: logging to stderr, the ROS 2 arguments taken out of the command
+/// line ([`split_ros_args`]: `--ros-args -r __ns:=/left -r __node:=NAME`, kept for
+/// [`start_node`] in [`ros_args`]), the rest parsed into `A` (clap's usage errors and `--help`
+/// as usual), then `run`, ending as [`exit_code`] says (one line `error: ...` on failure, a
+/// backtrace only with `RUST_BACKTRACE=1`).
 pub fn node_main<A: clap::Parser>(run: impl FnOnce(A) -> anyhow::Result<()>) -> std::process::ExitCode {
     init_logging();
-    exit_code(run(A::parse()))
+    let (args, ros) = match split_ros_args(std::env::args_os().collect()) {
+        Ok(split) => split,
+        Err(e) => return exit_code(Err(e)),
+    };
+    if ROS_ARGS.set(ros).is_err() {
+        return exit_code(Err(anyhow::anyhow!("node_main was called twice in one process")));
+    }
+    exit_code(run(A::parse_from(args)))
 }
 
 /// `s` seconds as a [`std::time::Duration`] that never panics: NaN and negative values give

@@ -17,7 +17,8 @@ use crate::qos;
 /// How a node joins the graph.
 #[derive(Debug, Clone)]
 pub struct NodeConfig {
-    /// ROS namespace, `/` for none.
+    /// ROS namespace, `/` for none, else absolute (`/left`): the node's name and its per-arm
+    /// topics ([`cowork_msgs::topics::Scope::Robot`]) live in it.
     pub namespace: String,
     /// Take time from `/clock` instead of the wall clock.
     pub use_sim_time: bool,
@@ -46,6 +47,8 @@ pub struct RosNode {
     pub(crate) node: Node,
     pub(crate) context: Context,
     name: String,
+    /// Checked by [`validate_namespace`].
+    namespace: String,
     /// Latest `/clock` time, ns; negative until the first tick when `use_sim_time`.
     sim_time_ns: Option<Arc<AtomicI64>>,
     _clock: Option<std::thread::JoinHandle<()>>,
@@ -53,7 +56,7 @@ pub struct RosNode {
 
 impl std::fmt::Debug for RosNode {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("RosNode").field("name", &self.name).finish_non_exhaustive()
+        f.debug_struct("RosNode").field("name", &self.name).field("namespace", &self.namespace).finish_non_exhaustive()
     }
 }
 
@@ -82,6 +85,26 @@ pub fn discovery_on_all_networks() -> bool {
         Ok(r) => matches!(r.trim().to_ascii_uppercase().as_str(), "SUBNET" | "SYSTEM_DEFAULT"),
         Err(_) => std::env::var("ROS_LOCALHOST_ONLY").is_ok_and(|v| v.trim() == "0"),
     }
+}
+
+/// Checks a ROS namespace: `/`, or absolute without a trailing slash (`/left`, `/lab/left`)
+/// with tokens `[A-Za-z_][A-Za-z0-9_]*`; the error names it.
+pub(crate) fn validate_namespace(namespace: &str) -> Result<()> {
+    let tokens_ok = || namespace.strip_prefix('/').is_some_and(|rest| rest.split('/').all(is_name_token));
+    if namespace == "/" || tokens_ok() {
+        Ok(())
+    } else {
+        bail!(
+            "invalid ROS namespace {namespace:?}: expected \"/\" or an absolute name like \"/left\" \
+             (tokens of ASCII letters, digits and _, not starting with a digit; no trailing /)"
+        )
+    }
+}
+
+/// Whether `token` is one token of a ROS name (a node name, a namespace part): `[A-Za-z_][A-Za-z0-9_]*`.
+pub(crate) fn is_name_token(token: &str) -> bool {
+    let mut chars = token.chars();
+    chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_') && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
 fn new_context(domain: u16, namespace: &str, name: &str) -> Result<Context> {
@@ -177,8 +200,10 @@ fn secure_participant(
 
 impl RosNode {
     /// Creates the node, starts its background spinner (discovery, parameter services) and,
-    /// with `use_sim_time`, follows `/clock`.
+    /// with `use_sim_time`, follows `/clock`. An invalid `config.namespace` is an error naming
+    /// it (before anything joins the domain).
     pub fn new(name: &str, config: &NodeConfig) -> Result<Self> {
+        validate_namespace(&config.namespace)?;
         let domain = match config.domain_id {
             Some(d) => d,
             None => domain_id_from_env()?,
@@ -208,6 +233,7 @@ impl RosNode {
             node,
             context,
             name: name.to_owned(),
+            namespace: config.namespace.clone(),
             sim_time_ns: None,
             _clock: None,
         };
@@ -237,9 +263,25 @@ impl RosNode {
         Ok(())
     }
 
-    /// The node's name.
+    /// The node's name (without its namespace).
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// The node's namespace: `/`, or absolute like `/left`.
+    pub fn namespace(&self) -> &str {
+        &self.namespace
+    }
+
+    /// The node's fully qualified name: `/ds_controller`, `/left/ds_controller`.
+    pub fn fully_qualified_name(&self) -> String {
+        self.node.fully_qualified_name()
+    }
+
+    /// The prefix of the TF frames of the arm in this node's namespace: `""` in `/`, `left/` in
+    /// `/left` ([`cowork_msgs::topics::frame_prefix`]).
+    pub fn frame_prefix(&self) -> String {
+        cowork_msgs::topics::frame_prefix(&self.namespace)
     }
 
     /// Current time: `/clock` time with `use_sim_time` (zero before the first tick), else the
@@ -296,14 +338,39 @@ impl RosNode {
         Ok(Subscription { inner, topic: topic.to_owned(), _type: PhantomData })
     }
 
-    /// A publisher on a graph topic ([`cowork_msgs::topics`]) with the topic's writer delivery.
+    /// A publisher on a graph topic ([`cowork_msgs::topics`]) with the topic's writer delivery,
+    /// resolved in the node's namespace ([`Topic::name_in`]: `/left/joint_states` for a node in
+    /// `/left`).
+    ///
+    /// [`Topic::name_in`]: cowork_msgs::topics::Topic::name_in
     pub fn advertise<T: RosMessage>(&mut self, topic: &cowork_msgs::topics::Topic<T>) -> Result<Publisher<T>> {
-        self.publisher::<T>(topic.name, &qos::of(topic.writer))
+        let name = topic.name_in(&self.namespace);
+        self.publisher::<T>(&name, &qos::of(topic.writer))
     }
 
-    /// A subscription to a graph topic ([`cowork_msgs::topics`]) with the topic's reader delivery.
+    /// A subscription to a graph topic ([`cowork_msgs::topics`]) with the topic's reader
+    /// delivery, resolved in the node's namespace (as [`advertise`](Self::advertise)).
     pub fn subscribe<T: RosMessage>(&mut self, topic: &cowork_msgs::topics::Topic<T>) -> Result<Subscription<T>> {
-        self.subscription::<T>(topic.name, &qos::of(topic.reader))
+        let name = topic.name_in(&self.namespace);
+        self.subscription::<T>(&name, &qos::of(topic.reader))
+    }
+
+    /// [`advertise`](Self::advertise) resolved in `namespace` instead of the node's: a node
+    /// that serves several arms (the simulator writes `/left/joint_states` and
+    /// `/right/joint_states`). A graph-scoped topic keeps its one name. An invalid `namespace`
+    /// is an error naming it.
+    pub fn advertise_in<T: RosMessage>(&mut self, topic: &cowork_msgs::topics::Topic<T>, namespace: &str) -> Result<Publisher<T>> {
+        validate_namespace(namespace)?;
+        self.publisher::<T>(&topic.name_in(namespace), &qos::of(topic.writer))
+    }
+
+    /// [`subscribe`](Self::subscribe) resolved in `namespace` instead of the node's: a node
+    /// that reads several arms (the supervisor reads `/left/robot_stream` and
+    /// `/right/robot_stream`). A graph-scoped topic keeps its one name. An invalid `namespace`
+    /// is an error naming it.
+    pub fn subscribe_in<T: RosMessage>(&mut self, topic: &cowork_msgs::topics::Topic<T>, namespace: &str) -> Result<Subscription<T>> {
+        validate_namespace(namespace)?;
+        self.subscription::<T>(&topic.name_in(namespace), &qos::of(topic.reader))
     }
 
     /// Topics seen on the domain so far, with their ROS types (`pkg/msg/Name`); DDS-internal
@@ -486,6 +553,24 @@ mod tests {
         );
         assert_eq!(ros_type_name("rmw_dds_common::msg::dds_::ParticipantEntitiesInfo_").as_deref(),
             Some("rmw_dds_common/msg/ParticipantEntitiesInfo"));
+    }
+
+    #[test]
+    fn namespaces_are_root_or_absolute_ros_names() {
+        for ok in ["/", "/left", "/right_arm", "/lab/left", "/_x9"] {
+            assert!(validate_namespace(ok).is_ok(), "{ok}");
+        }
+        for bad in ["", "left", "/left/", "//left", "/lab//left", "/9left", "/le-ft", "/left arm", "/é"] {
+            let e = validate_namespace(bad).expect_err(bad).to_string();
+            assert!(e.contains(&format!("{bad:?}")), "{e}");
+        }
+    }
+
+    #[test]
+    fn a_node_in_a_bad_namespace_is_refused_before_joining() {
+        let config = NodeConfig { namespace: "left/".into(), domain_id: Some(0), ..NodeConfig::default() };
+        let e = RosNode::new("ds_controller", &config).expect_err("a bad namespace").to_string();
+        assert!(e.contains("invalid ROS namespace \"left/\""), "{e}");
     }
 
     #[test]

@@ -31,5 +31,5 @@ mod simulator;
 
 pub use error::{CommandError, Result, SimError};
 pub use params::SimParams;
-pub use scene::{Camera, Pose, Scene, SceneObject, Shape};
-pub use simulator::{FrameEdge, GripperState, ObjectState, Simulator, Wrench};
+pub use scene::{ArmSetup, Camera, MIN_BASE_SEPARATION_M, Pose, RobotSetup, Scene, SceneObject, Shape};
+pub use simulator::{Arm, ArmClearance, FrameEdge, GripperState, ObjectState, Simulator, WORLD_FRAME, Wrench};

@@ -89,7 +89,7 @@ pub struct Camera {
     pub rate_hz: f64,
 }
 
-/// Robot placement and start configuration.
+/// Start configuration of the one arm of a single-arm scene, whose base frame is the scene frame.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RobotSetup {
@@ -97,14 +97,38 @@ pub struct RobotSetup {
     pub initial_joints_deg: Vec<f64>,
 }
 
-/// A table-top scene in the robot base frame.
+/// One arm of a scene with several arms (`arms:`): an instance of the robot description with
+/// its own name, base pose and start configuration. Its topics live in the ROS namespace
+/// `/<name>` and its tf frames are prefixed `<name>/` (see lwr_sim).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ArmSetup {
+    /// Arm name (`left`, `right`): a ROS name token, `[a-z_][a-z0-9_]*`.
+    pub name: String,
+    /// Pose of the arm's base frame in the scene (`world`) frame.
+    pub base: Pose,
+    /// Joint positions at start, deg (one per actuated joint).
+    pub initial_joints_deg: Vec<f64>,
+}
+
+/// Arm bases closer than this (m, between base frame origins) overlap: an LWR base is a
+/// cylinder of about 0.09 m radius.
+pub const MIN_BASE_SEPARATION_M: f64 = 0.2;
+
+/// A table-top scene. With `robot:` (one arm) everything is in the robot base frame; with
+/// `arms:` (one entry per arm) everything is in the `world` frame and each arm has a base pose.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Free text shown in logs.
     #[serde(default)]
     pub description: String,
-    pub robot: RobotSetup,
+    /// The one arm of a single-arm scene (exclusive with `arms`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot: Option<RobotSetup>,
+    /// The arms of a scene with named arms (exclusive with `robot`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub arms: Vec<ArmSetup>,
     pub table: Table,
     #[serde(default)]
     pub objects: Vec<SceneObject>,
@@ -128,9 +152,7 @@ impl Scene {
 
     /// Checks every number; `place` names the file in error messages.
     pub fn validate(&self, place: &str) -> Result<()> {
-        for (i, v) in self.robot.initial_joints_deg.iter().enumerate() {
-            finite(place, &format!("robot.initial_joints_deg[{i}]"), *v)?;
-        }
+        self.validate_arms(place)?;
         for (i, v) in self.table.size.iter().enumerate() {
             positive(place, &format!("table.size[{i}]"), *v)?;
         }
@@ -186,6 +208,100 @@ impl Scene {
         finite(place, "camera.cx", c.cx)?;
         finite(place, "camera.cy", c.cy)?;
         Ok(())
+    }
+
+    fn validate_arms(&self, place: &str) -> Result<()> {
+        let bad = |field: String, value: String, reason: &str| SimError::BadValue {
+            place: place.to_owned(),
+            field,
+            value,
+            reason: reason.to_owned(),
+        };
+        match (&self.robot, self.arms.is_empty()) {
+            (Some(_), false) => {
+                return Err(bad("robot/arms".into(), "both".into(), "give `robot:` (one arm) or `arms:` (named arms), not both"));
+            }
+            (None, true) => {
+                return Err(bad("robot/arms".into(), "neither".into(), "give `robot:` (one arm) or `arms:` (named arms)"));
+            }
+            (Some(robot), true) => {
+                for (i, v) in robot.initial_joints_deg.iter().enumerate() {
+                    finite(place, &format!("robot.initial_joints_deg[{i}]"), *v)?;
+                }
+            }
+            (None, false) => {}
+        }
+        for (i, arm) in self.arms.iter().enumerate() {
+            let name_ok = arm.name.chars().next().is_some_and(|c| c.is_ascii_lowercase() || c == '_')
+                && arm.name.chars().all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+            if !name_ok {
+                return Err(bad(format!("arms[{i}].name"), format!("{:?}", arm.name), "must be a ROS name token: [a-z_][a-z0-9_]*"));
+            }
+            if let Some(j) = self.arms[..i].iter().position(|a| a.name == arm.name) {
+                return Err(bad(format!("arms[{i}].name"), arm.name.clone(), &format!("duplicate arm name (also arms[{j}])")));
+            }
+            arm.base.validate(place, &format!("arms[{i}].base"))?;
+            if arm.base.look_at.is_some() {
+                return Err(bad(format!("arms[{i}].base.look_at"), "given".into(), "an arm base takes rpy or quaternion_xyzw"));
+            }
+            for (k, v) in arm.initial_joints_deg.iter().enumerate() {
+                finite(place, &format!("arms[{i}].initial_joints_deg[{k}]"), *v)?;
+            }
+            let here = Vector3::from(arm.base.position);
+            for other in &self.arms[..i] {
+                let apart = (here - Vector3::from(other.base.position)).norm();
+                if apart < MIN_BASE_SEPARATION_M {
+                    return Err(bad(
+                        format!("arms[{i}].base.position"),
+                        format!("{:?}", arm.base.position),
+                        &format!(
+                            "{apart:.3} m from arm `{}`'s base: arm bases overlap (they must be at least {MIN_BASE_SEPARATION_M} m apart)",
+                            other.name
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The arms: the `arms:` list, or the one arm of `robot:` (empty name, base at the scene
+    /// origin).
+    pub fn arm_setups(&self) -> Vec<ArmSetup> {
+        match &self.robot {
+            Some(robot) if self.arms.is_empty() => vec![ArmSetup {
+                name: String::new(),
+                base: Pose::default(),
+                initial_joints_deg: robot.initial_joints_deg.clone(),
+            }],
+            _ => self.arms.clone(),
+        }
+    }
+
+    /// Whether the scene names its arms (`arms:`): its frame is `world` and each arm's topics
+    /// and frames carry the arm's name.
+    pub fn has_named_arms(&self) -> bool {
+        !self.arms.is_empty()
+    }
+
+    /// Start joints (deg) of the first arm (the only one of a single-arm scene); empty when the
+    /// scene has no arm.
+    pub fn initial_joints_deg(&self) -> &[f64] {
+        match (&self.robot, self.arms.first()) {
+            (Some(r), _) => &r.initial_joints_deg,
+            (None, Some(a)) => &a.initial_joints_deg,
+            (None, None) => &[],
+        }
+    }
+
+    /// Sets the start joints (deg) of the first arm (the only one of a single-arm scene, which
+    /// this makes the scene if it has no arm).
+    pub fn set_initial_joints_deg(&mut self, deg: Vec<f64>) {
+        match (&mut self.robot, self.arms.first_mut()) {
+            (Some(r), _) => r.initial_joints_deg = deg,
+            (None, Some(a)) => a.initial_joints_deg = deg,
+            (None, None) => self.robot = Some(RobotSetup { initial_joints_deg: deg }),
+        }
     }
 
     /// Height of the table top in the base frame, m.

@@ -4,7 +4,8 @@ use cowork_robot::{
     DOF, Jacobian, JointVector, LinkPoses, RobotModel, damped_pseudo_inverse,
 };
 use nalgebra::{Isometry3, Point3, Vector3, Vector6};
-use parry3d_f64::shape::Shape as ParryShape;
+use parry3d_f64::bounding_volume::BoundingVolume;
+use parry3d_f64::shape::{ConvexPolyhedron, Shape as ParryShape};
 
 use crate::error::{CommandError, Result, SimError};
 use crate::params::SimParams;
@@ -14,9 +15,10 @@ use crate::scene::{Scene, Shape};
 /// One edge of the frame tree ([`Simulator::frame_tree`]): `child`'s pose in `parent`'s frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FrameEdge<'a> {
-    /// Parent frame (a link name); `None` for the robot base frame.
+    /// Parent frame (a link frame); `None` for the scene's root frame
+    /// ([`Simulator::root_frame`]).
     pub parent: Option<&'a str>,
-    /// Child frame: a link or an object name.
+    /// Child frame: a link frame (`<arm>/<link>` for a named arm) or an object name.
     pub child: &'a str,
     /// `child` in `parent`'s frame (m, rad).
     pub pose: Isometry3<f64>,
@@ -34,7 +36,10 @@ pub struct Wrench {
     pub torque: Vector3<f64>,
 }
 
-/// State of the gripper.
+/// The scene frame of a scene with named arms (`arms:`).
+pub const WORLD_FRAME: &str = "world";
+
+/// State of a gripper.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GripperState {
     Open,
@@ -48,7 +53,7 @@ pub struct ObjectState {
     pub name: String,
     /// Geometry as configured.
     pub shape: Shape,
-    /// Pose of the shape centre, base frame.
+    /// Pose of the shape centre, scene frame (the robot base frame of a single-arm scene).
     pub pose: Isometry3<f64>,
     /// Whether the gripper can pick it up.
     pub graspable: bool,
@@ -68,27 +73,26 @@ impl std::fmt::Debug for ObjectState {
 }
 
 impl ObjectState {
-    /// Distance from a point (base frame) to the object's surface, m; 0 inside.
+    /// Distance from a point (scene frame) to the object's surface, m; 0 inside.
     pub fn distance_to(&self, point: &Point3<f64>) -> f64 {
         self.collider
             .distance_to_point(&(self.pose * self.collider_offset), point, true)
     }
 
-    /// Axis-aligned bounding box of the object, base frame.
+    /// Axis-aligned bounding box of the object, scene frame.
     fn aabb(&self) -> parry3d_f64::bounding_volume::Aabb {
         self.collider.compute_aabb(&(self.pose * self.collider_offset))
     }
 }
 
-/// Kinematic simulator. See the crate documentation.
+/// One arm as simulated: joints, command, external wrench, gripper and link poses.
 #[derive(Debug)]
-pub struct Simulator {
-    model: RobotModel,
-    params: SimParams,
-    scene: Scene,
-    objects: Vec<ObjectState>,
-    step_ns: i64,
-    time_ns: i64,
+pub struct Arm {
+    name: String,
+    /// Base frame in the scene frame.
+    base: Isometry3<f64>,
+    /// tf frame of every link: the link name, prefixed `<name>/` for a named arm.
+    frames: Vec<String>,
     q: JointVector,
     /// Joint velocity applied in the last step, rad/s.
     qd: JointVector,
@@ -98,40 +102,111 @@ pub struct Simulator {
     gripper: GripperState,
     /// Pose of the held object in the tool frame.
     grasp_offset: Isometry3<f64>,
+    /// Link poses in the arm's base frame.
     poses: LinkPoses,
     jacobian: Jacobian,
 }
 
+impl Arm {
+    /// The arm's name: empty for the one arm of a single-arm scene.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Pose of the arm's base frame in the scene frame.
+    pub fn base(&self) -> &Isometry3<f64> {
+        &self.base
+    }
+
+    /// tf frame names of the links, model order (`left/lwr_link_3` for arm `left`).
+    pub fn frames(&self) -> &[String] {
+        &self.frames
+    }
+
+    /// Joint positions, rad.
+    pub fn joint_positions(&self) -> &JointVector {
+        &self.q
+    }
+
+    /// Joint velocities applied in the last step, rad/s.
+    pub fn joint_velocities(&self) -> &JointVector {
+        &self.qd
+    }
+
+    /// Poses of every link, the arm's base frame.
+    pub fn link_poses(&self) -> &LinkPoses {
+        &self.poses
+    }
+
+    /// Gripper state; an object index refers to [`Simulator::objects`].
+    pub fn gripper(&self) -> GripperState {
+        self.gripper
+    }
+
+    fn holding(&self) -> Option<usize> {
+        match self.gripper {
+            GripperState::Closed { holding } => holding,
+            GripperState::Open => None,
+        }
+    }
+}
+
+/// The closest pair of links of two different arms ([`Simulator::arm_clearance`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ArmClearance {
+    /// Distance between the two links' convex hulls, m; 0 when they touch or intersect.
+    pub distance_m: f64,
+    /// The two arms (indices into [`Simulator::arms`]) and their links (model link indices).
+    pub arms: [usize; 2],
+    pub links: [usize; 2],
+}
+
+/// Kinematic simulator of one or more arms of the same model. See the crate documentation.
+#[derive(Debug)]
+pub struct Simulator {
+    model: RobotModel,
+    params: SimParams,
+    scene: Scene,
+    objects: Vec<ObjectState>,
+    step_ns: i64,
+    time_ns: i64,
+    arms: Vec<Arm>,
+    /// Convex hull of each link's mesh, link frame (for arm–arm clearance); `None` without a mesh.
+    hulls: Vec<Option<ConvexPolyhedron>>,
+}
+
 impl Simulator {
-    /// Builds a simulator; the scene's initial joints must match the model's joints and limits.
+    /// Builds a simulator; every arm's initial joints must match the model's joints and
+    /// limits, and no two arms may touch at their initial joints.
     pub fn new(model: RobotModel, scene: Scene, params: SimParams) -> Result<Self> {
         params.validate("simulator parameters")?;
         scene.validate("scene")?;
-        if scene.robot.initial_joints_deg.len() != DOF {
-            return Err(SimError::BadValue {
-                place: "scene".into(),
-                field: "robot.initial_joints_deg".into(),
-                value: format!("{} values", scene.robot.initial_joints_deg.len()),
-                reason: format!("the robot has {DOF} joints"),
-            });
-        }
-        let mut q = JointVector::zeros();
-        for (i, deg) in scene.robot.initial_joints_deg.iter().enumerate() {
-            let rad = deg.to_radians();
-            let lim = &model.joint_limits()[i];
-            if rad < lim.lower || rad > lim.upper {
-                return Err(SimError::BadValue {
-                    place: "scene".into(),
-                    field: format!("robot.initial_joints_deg[{i}]"),
-                    value: deg.to_string(),
-                    reason: format!(
-                        "outside the joint limits [{:.1}, {:.1}] deg",
-                        lim.lower.to_degrees(),
-                        lim.upper.to_degrees()
-                    ),
-                });
-            }
-            q[i] = rad;
+        let named = scene.has_named_arms();
+        let mut arms = Vec::new();
+        for setup in scene.arm_setups() {
+            let field = if named { format!("arms[{}].initial_joints_deg", arms.len()) } else { "robot.initial_joints_deg".into() };
+            let q = initial_joints(&model, &setup.initial_joints_deg, &field)?;
+            let frames = model
+                .link_names()
+                .iter()
+                .map(|l| if named { format!("{}/{l}", setup.name) } else { l.clone() })
+                .collect();
+            let mut arm = Arm {
+                name: setup.name,
+                base: setup.base.isometry(),
+                frames,
+                q,
+                qd: JointVector::zeros(),
+                command: JointVector::zeros(),
+                command_time_ns: None,
+                wrench: None,
+                gripper: GripperState::Open,
+                grasp_offset: Isometry3::identity(),
+                poses: LinkPoses::default(),
+                jacobian: Jacobian::zeros(),
+            };
+            model.forward_kinematics(&arm.q, &mut arm.poses);
+            arms.push(arm);
         }
         let objects = scene
             .objects
@@ -148,55 +223,79 @@ impl Simulator {
                 }
             })
             .collect();
-        let step_ns = (params.step_s * 1e9).round() as i64;
-        let mut sim = Self {
-            model,
-            params,
-            scene,
-            objects,
-            step_ns,
-            time_ns: 0,
-            q,
-            qd: JointVector::zeros(),
-            command: JointVector::zeros(),
-            command_time_ns: None,
-            wrench: None,
-            gripper: GripperState::Open,
-            grasp_offset: Isometry3::identity(),
-            poses: LinkPoses::default(),
-            jacobian: Jacobian::zeros(),
+        let hulls = if arms.len() > 1 {
+            (0..model.link_count())
+                .map(|l| model.link_mesh(l).and_then(|m| ConvexPolyhedron::from_convex_hull(&m.vertices)))
+                .collect()
+        } else {
+            Vec::new()
         };
-        sim.model.forward_kinematics(&sim.q, &mut sim.poses);
+        let step_ns = (params.step_s * 1e9).round() as i64;
+        let sim = Self { model, params, scene, objects, step_ns, time_ns: 0, arms, hulls };
+        if let Some(c) = sim.arm_clearance()
+            && c.distance_m <= 0.0
+        {
+            let (a, b) = (&sim.arms[c.arms[0]], &sim.arms[c.arms[1]]);
+            return Err(SimError::BadValue {
+                place: "scene".into(),
+                field: format!("arms ({} and {})", a.name, b.name),
+                value: format!("{} touches {}", a.frames[c.links[0]], b.frames[c.links[1]]),
+                reason: "the arms intersect at their initial joints: move their bases apart or change initial_joints_deg".into(),
+            });
+        }
         Ok(sim)
     }
 
-    /// Sets the joint velocity command, rad/s. A rejected command stops the robot (it is held)
-    /// and the error says why.
+    /// Sets the joint velocity command of the first arm ([`Self::set_arm_velocity_command`]).
     pub fn set_velocity_command(&mut self, qd: &[f64]) -> Result<(), CommandError> {
+        self.set_arm_velocity_command(0, qd)
+    }
+
+    /// Sets the joint velocity command of arm `arm`, rad/s. A rejected command stops that arm
+    /// (it is held) and the error says why.
+    ///
+    /// # Panics
+    /// If `arm` is not an arm index.
+    pub fn set_arm_velocity_command(&mut self, arm: usize, qd: &[f64]) -> Result<(), CommandError> {
         if qd.len() != DOF {
-            self.hold();
+            self.hold_arm(arm);
             return Err(CommandError::WrongLength { got: qd.len(), expected: DOF });
         }
         if let Some((index, value)) = qd.iter().copied().enumerate().find(|(_, v)| !v.is_finite()) {
-            self.hold();
+            self.hold_arm(arm);
             return Err(CommandError::NotFinite { what: "joint velocity command", index, value });
         }
-        self.command = JointVector::from_column_slice(qd);
-        self.command_time_ns = Some(self.time_ns);
+        let a = &mut self.arms[arm];
+        a.command = JointVector::from_column_slice(qd);
+        a.command_time_ns = Some(self.time_ns);
         Ok(())
     }
 
-    /// Stops commanded motion until the next command.
+    /// Stops the commanded motion of every arm until its next command.
     pub fn hold(&mut self) {
-        self.command = JointVector::zeros();
-        self.command_time_ns = None;
+        for arm in 0..self.arms.len() {
+            self.hold_arm(arm);
+        }
     }
 
-    /// Applies an external wrench at the origin of `link` (the tool link when `None`).
+    /// Stops the commanded motion of arm `arm` until its next command.
+    pub fn hold_arm(&mut self, arm: usize) {
+        let a = &mut self.arms[arm];
+        a.command = JointVector::zeros();
+        a.command_time_ns = None;
+    }
+
+    /// Applies an external wrench to the first arm ([`Self::set_arm_wrench`]).
     pub fn set_wrench(&mut self, wrench: Wrench, link: Option<&str>) -> Result<(), CommandError> {
+        self.set_arm_wrench(0, wrench, link)
+    }
+
+    /// Applies an external wrench (the arm's base frame) at the origin of `link` of arm `arm`
+    /// (the tool link when `None`; the link's model name, unprefixed).
+    pub fn set_arm_wrench(&mut self, arm: usize, wrench: Wrench, link: Option<&str>) -> Result<(), CommandError> {
         let values = wrench.force.iter().chain(wrench.torque.iter()).copied();
         if let Some((index, value)) = values.enumerate().find(|(_, v)| !v.is_finite()) {
-            self.wrench = None;
+            self.arms[arm].wrench = None;
             return Err(CommandError::NotFinite { what: "wrench", index, value });
         }
         let link = match link {
@@ -206,48 +305,60 @@ impl Simulator {
                 .link_index(name)
                 .ok_or_else(|| CommandError::UnknownLink { link: name.to_owned() })?,
         };
-        self.wrench = Some((wrench, link, self.time_ns));
+        self.arms[arm].wrench = Some((wrench, link, self.time_ns));
         Ok(())
     }
 
-    /// Closes or opens the gripper. Closing grasps the nearest graspable object within
-    /// `grasp_reach_m` of the tool point; returns the name of the object grasped, if any.
+    /// Closes or opens the first arm's gripper ([`Self::command_arm_gripper`]).
     pub fn command_gripper(&mut self, close: bool) -> Option<&str> {
+        self.command_arm_gripper(0, close)
+    }
+
+    /// Closes or opens the gripper of arm `arm`. Closing grasps the nearest graspable object
+    /// no other gripper holds within `grasp_reach_m` of the tool point; returns the name of the
+    /// object grasped, if any.
+    pub fn command_arm_gripper(&mut self, arm: usize, close: bool) -> Option<&str> {
         if !close {
-            if let GripperState::Closed { holding: Some(i) } = self.gripper {
+            if let Some(i) = self.arms[arm].holding() {
                 self.release(i);
             }
-            self.gripper = GripperState::Open;
+            self.arms[arm].gripper = GripperState::Open;
             return None;
         }
-        if let GripperState::Closed { holding } = self.gripper {
+        if let GripperState::Closed { holding } = self.arms[arm].gripper {
             return holding.map(|i| self.objects[i].name.as_str());
         }
-        let tool = self.tool_pose();
+        let tool = self.world_tool_pose(arm);
         let tool_point = Point3::from(tool.translation.vector);
         let nearest = self
             .objects
             .iter()
             .enumerate()
-            .filter(|(_, o)| o.graspable)
+            .filter(|(i, o)| o.graspable && self.holder(*i).is_none())
             .map(|(i, o)| (i, o.distance_to(&tool_point)))
             .filter(|(_, d)| *d <= self.params.grasp_reach_m)
             .min_by(|a, b| a.1.total_cmp(&b.1));
-        self.gripper = GripperState::Closed { holding: nearest.map(|(i, _)| i) };
+        let a = &mut self.arms[arm];
+        a.gripper = GripperState::Closed { holding: nearest.map(|(i, _)| i) };
         let i = nearest?.0;
-        self.grasp_offset = tool.inverse() * self.objects[i].pose;
+        a.grasp_offset = tool.inverse() * self.objects[i].pose;
         Some(self.objects[i].name.as_str())
     }
 
-    /// A person moves object `name` to `pose` (base frame): picked up, carried, poured, put
+    /// The arm whose gripper holds object `object`, if any.
+    pub fn holder(&self, object: usize) -> Option<usize> {
+        self.arms.iter().position(|a| a.holding() == Some(object))
+    }
+
+    /// A person moves object `name` to `pose` (scene frame): picked up, carried, poured, put
     /// down. The simulator does not model the person's grasp; the object is where the person's
     /// hand puts it, with no settling (put it down at its table height). Refused for an unknown
-    /// object, the object the gripper holds, or a non-finite pose.
+    /// object, an object a gripper holds, or a non-finite pose.
     pub fn place_object(&mut self, name: &str, pose: Isometry3<f64>) -> Result<(), CommandError> {
         let Some(i) = self.objects.iter().position(|o| o.name == name) else {
             return Err(CommandError::UnknownObject { name: name.to_owned() });
         };
-        if self.gripper == (GripperState::Closed { holding: Some(i) }) {
+        if self.holder(i).is_some() {
             return Err(CommandError::HeldByGripper { name: name.to_owned() });
         }
         let finite = pose.translation.vector.iter().chain(pose.rotation.coords.iter()).all(|v| v.is_finite());
@@ -298,55 +409,15 @@ impl Simulator {
 
     /// Advances the simulation by one step (`step_s`). Allocation-free.
     pub fn step(&mut self) {
-        let dt = self.step_ns as f64 * 1e-9;
-        let timeout_ns = (self.params.command_timeout_s * 1e9) as i64;
-        let mut qd = match self.command_time_ns {
-            Some(t) if self.time_ns - t <= timeout_ns => self.command,
-            _ => JointVector::zeros(),
-        };
-        let wrench_timeout_ns = (self.params.wrench_timeout_s * 1e9) as i64;
-        if let Some((w, link, t)) = self.wrench {
-            if self.time_ns - t <= wrench_timeout_ns {
-                qd += self.admittance_velocity(&w, link);
-            } else {
-                self.wrench = None;
-            }
-        }
-        // Scale the whole vector so every joint respects its speed limit: the Cartesian
-        // direction of the motion is kept, only its speed drops.
-        let limits = self.model.joint_limits();
-        let mut worst: f64 = 1.0;
-        for i in 0..DOF {
-            worst = worst.max(qd[i].abs() / limits[i].velocity);
-        }
-        qd /= worst;
-        for i in 0..DOF {
-            let next = (self.q[i] + qd[i] * dt).clamp(limits[i].lower, limits[i].upper);
-            self.qd[i] = (next - self.q[i]) / dt;
-            self.q[i] = next;
+        for arm in &mut self.arms {
+            step_arm(arm, &self.model, &self.params, self.time_ns, self.step_ns);
         }
         self.time_ns += self.step_ns;
-        self.model.forward_kinematics(&self.q, &mut self.poses);
-        if let GripperState::Closed { holding: Some(i) } = self.gripper {
-            self.objects[i].pose = self.tool_pose() * self.grasp_offset;
+        for a in 0..self.arms.len() {
+            if let Some(i) = self.arms[a].holding() {
+                self.objects[i].pose = self.world_tool_pose(a) * self.arms[a].grasp_offset;
+            }
         }
-    }
-
-    /// Eq. 4.6: `ẋ = c f`, `ω = c_r τ`, mapped to joints through the damped pseudo-inverse
-    /// `Jᵀ (J Jᵀ + λ² I)⁻¹` of the Jacobian at the contact point (the origin of the contact
-    /// link, as the thesis assumes contact at the end of the touched link).
-    fn admittance_velocity(&mut self, w: &Wrench, link: usize) -> JointVector {
-        self.model
-            .jacobian(&self.poses, link, &Point3::origin(), &mut self.jacobian);
-        let v = Vector6::new(
-            self.params.admittance_gain * w.force.x,
-            self.params.admittance_gain * w.force.y,
-            self.params.admittance_gain * w.force.z,
-            self.params.admittance_rotational_gain * w.torque.x,
-            self.params.admittance_rotational_gain * w.torque.y,
-            self.params.admittance_rotational_gain * w.torque.z,
-        );
-        damped_pseudo_inverse(&self.jacobian, self.params.admittance_damping) * v
     }
 
     /// Simulated time since start, ns.
@@ -354,38 +425,105 @@ impl Simulator {
         self.time_ns
     }
 
-    /// Joint positions, rad.
+    /// The arms, scene order (one for a single-arm scene).
+    pub fn arms(&self) -> &[Arm] {
+        &self.arms
+    }
+
+    /// Arm `arm`.
+    ///
+    /// # Panics
+    /// If `arm` is not an arm index.
+    pub fn arm(&self, arm: usize) -> &Arm {
+        &self.arms[arm]
+    }
+
+    /// Index of the arm named `name`.
+    pub fn arm_index(&self, name: &str) -> Option<usize> {
+        self.arms.iter().position(|a| a.name == name)
+    }
+
+    /// Joint positions of the first arm, rad.
     pub fn joint_positions(&self) -> &JointVector {
-        &self.q
+        &self.arms[0].q
     }
 
-    /// Joint velocities applied in the last step, rad/s.
+    /// Joint velocities of the first arm applied in the last step, rad/s.
     pub fn joint_velocities(&self) -> &JointVector {
-        &self.qd
+        &self.arms[0].qd
     }
 
-    /// Poses of every link of the model, base frame.
+    /// Poses of every link of the first arm, its base frame.
     pub fn link_poses(&self) -> &LinkPoses {
-        &self.poses
+        &self.arms[0].poses
     }
 
-    /// Pose of the tool (tip) link, base frame.
+    /// Pose of the first arm's tool (tip) link, its base frame.
     pub fn tool_pose(&self) -> Isometry3<f64> {
-        *self.poses.get(self.model.tip_link())
+        self.arm_tool_pose(0)
+    }
+
+    /// Pose of arm `arm`'s tool (tip) link, its base frame.
+    pub fn arm_tool_pose(&self, arm: usize) -> Isometry3<f64> {
+        *self.arms[arm].poses.get(self.model.tip_link())
+    }
+
+    /// Pose of arm `arm`'s tool (tip) link, scene frame.
+    pub fn world_tool_pose(&self, arm: usize) -> Isometry3<f64> {
+        self.arms[arm].base * self.arm_tool_pose(arm)
+    }
+
+    /// The scene's root frame: the first link of the model (the robot base) for a single-arm
+    /// scene, [`WORLD_FRAME`] for a scene with named arms.
+    pub fn root_frame(&self) -> &str {
+        if self.scene.has_named_arms() { WORLD_FRAME } else { &self.arms[0].frames[0] }
     }
 
     /// The frame tree at the current state, as `robot_state_publisher` + object frames: every
-    /// link but the base in its parent link's frame (serial chain, base first), then every
-    /// object in the base frame. A `parent` of `None` is the base frame.
+    /// link of every arm in its parent link's frame (serial chain, base first; the base of a
+    /// named arm in the root frame), then every object in the root frame. A `parent` of `None`
+    /// is [`Self::root_frame`].
     pub fn frame_tree(&self) -> impl Iterator<Item = FrameEdge<'_>> {
-        let names = self.model.link_names();
-        let links = (1..self.poses.len()).map(move |i| FrameEdge {
-            parent: (i > 1).then(|| names[i - 1].as_str()),
-            child: names[i].as_str(),
-            pose: self.poses.get(i - 1).inv_mul(self.poses.get(i)),
+        let named = self.scene.has_named_arms();
+        let links = self.arms.iter().flat_map(move |arm| {
+            let first = if named { 0 } else { 1 };
+            (first..arm.poses.len()).map(move |i| FrameEdge {
+                parent: (i > 0 && (named || i > 1)).then(|| arm.frames[i - 1].as_str()),
+                child: arm.frames[i].as_str(),
+                pose: if i == 0 { arm.base * *arm.poses.get(0) } else { arm.poses.get(i - 1).inv_mul(arm.poses.get(i)) },
+            })
         });
         let objects = self.objects.iter().map(|o| FrameEdge { parent: None, child: o.name.as_str(), pose: o.pose });
         links.chain(objects)
+    }
+
+    /// The closest pair of links of two different arms at the current joints (link meshes'
+    /// convex hulls), `None` with fewer than two arms. Links whose bounding boxes are farther
+    /// apart than the closest pair found so far are skipped.
+    pub fn arm_clearance(&self) -> Option<ArmClearance> {
+        let mut best: Option<ArmClearance> = None;
+        for a in 0..self.arms.len() {
+            for b in a + 1..self.arms.len() {
+                for (la, ha) in self.hulls.iter().enumerate() {
+                    let Some(ha) = ha else { continue };
+                    let pa = self.arms[a].base * self.arms[a].poses.get(la);
+                    let box_a = ha.compute_aabb(&pa);
+                    for (lb, hb) in self.hulls.iter().enumerate() {
+                        let Some(hb) = hb else { continue };
+                        let pb = self.arms[b].base * self.arms[b].poses.get(lb);
+                        let bound = best.map_or(f64::INFINITY, |c| c.distance_m);
+                        if aabb_gap(&box_a, &hb.compute_aabb(&pb)) >= bound {
+                            continue;
+                        }
+                        let Ok(d) = parry3d_f64::query::distance(&pa, ha, &pb, hb) else { continue };
+                        if d < bound {
+                            best = Some(ArmClearance { distance_m: d, arms: [a, b], links: [la, lb] });
+                        }
+                    }
+                }
+            }
+        }
+        best
     }
 
     /// Scene objects with their current poses.
@@ -393,20 +531,22 @@ impl Simulator {
         &self.objects
     }
 
-    /// Gripper state.
+    /// The first arm's gripper state.
     pub fn gripper(&self) -> GripperState {
-        self.gripper
+        self.arms[0].gripper
     }
 
-    /// Name of the held object, if any.
+    /// Name of the object the first arm holds, if any.
     pub fn held_object(&self) -> Option<&str> {
-        match self.gripper {
-            GripperState::Closed { holding: Some(i) } => Some(&self.objects[i].name),
-            _ => None,
-        }
+        self.arm_held_object(0)
     }
 
-    /// The robot model.
+    /// Name of the object arm `arm` holds, if any.
+    pub fn arm_held_object(&self, arm: usize) -> Option<&str> {
+        self.arms[arm].holding().map(|i| self.objects[i].name.as_str())
+    }
+
+    /// The robot model (every arm's).
     pub fn model(&self) -> &RobotModel {
         &self.model
     }
@@ -420,4 +560,92 @@ impl Simulator {
     pub fn params(&self) -> &SimParams {
         &self.params
     }
+}
+
+/// Start joints (rad) from `deg`, checked against the model; `field` names them in errors.
+fn initial_joints(model: &RobotModel, deg: &[f64], field: &str) -> Result<JointVector> {
+    if deg.len() != DOF {
+        return Err(SimError::BadValue {
+            place: "scene".into(),
+            field: field.to_owned(),
+            value: format!("{} values", deg.len()),
+            reason: format!("the robot has {DOF} joints"),
+        });
+    }
+    let mut q = JointVector::zeros();
+    for (i, d) in deg.iter().enumerate() {
+        let rad = d.to_radians();
+        let lim = &model.joint_limits()[i];
+        if rad < lim.lower || rad > lim.upper {
+            return Err(SimError::BadValue {
+                place: "scene".into(),
+                field: format!("{field}[{i}]"),
+                value: d.to_string(),
+                reason: format!(
+                    "outside the joint limits [{:.1}, {:.1}] deg",
+                    lim.lower.to_degrees(),
+                    lim.upper.to_degrees()
+                ),
+            });
+        }
+        q[i] = rad;
+    }
+    Ok(q)
+}
+
+/// Gap between two boxes, m (0 when they overlap).
+fn aabb_gap(a: &parry3d_f64::bounding_volume::Aabb, b: &parry3d_f64::bounding_volume::Aabb) -> f64 {
+    if a.intersects(b) {
+        return 0.0;
+    }
+    let d = Vector3::from_fn(|i, _| (a.mins[i] - b.maxs[i]).max(b.mins[i] - a.maxs[i]).max(0.0));
+    d.norm()
+}
+
+/// One integration step of one arm. Allocation-free.
+fn step_arm(arm: &mut Arm, model: &RobotModel, params: &SimParams, time_ns: i64, step_ns: i64) {
+    let dt = step_ns as f64 * 1e-9;
+    let timeout_ns = (params.command_timeout_s * 1e9) as i64;
+    let mut qd = match arm.command_time_ns {
+        Some(t) if time_ns - t <= timeout_ns => arm.command,
+        _ => JointVector::zeros(),
+    };
+    let wrench_timeout_ns = (params.wrench_timeout_s * 1e9) as i64;
+    if let Some((w, link, t)) = arm.wrench {
+        if time_ns - t <= wrench_timeout_ns {
+            qd += admittance_velocity(arm, model, params, &w, link);
+        } else {
+            arm.wrench = None;
+        }
+    }
+    // Scale the whole vector so every joint respects its speed limit: the Cartesian
+    // direction of the motion is kept, only its speed drops.
+    let limits = model.joint_limits();
+    let mut worst: f64 = 1.0;
+    for i in 0..DOF {
+        worst = worst.max(qd[i].abs() / limits[i].velocity);
+    }
+    qd /= worst;
+    for i in 0..DOF {
+        let next = (arm.q[i] + qd[i] * dt).clamp(limits[i].lower, limits[i].upper);
+        arm.qd[i] = (next - arm.q[i]) / dt;
+        arm.q[i] = next;
+    }
+    model.forward_kinematics(&arm.q, &mut arm.poses);
+}
+
+/// Eq. 4.6: `ẋ = c f`, `ω = c_r τ`, mapped to joints through the damped pseudo-inverse
+/// `Jᵀ (J Jᵀ + λ² I)⁻¹` of the Jacobian at the contact point (the origin of the contact
+/// link, as the thesis assumes contact at the end of the touched link).
+fn admittance_velocity(arm: &mut Arm, model: &RobotModel, params: &SimParams, w: &Wrench, link: usize) -> JointVector {
+    model.jacobian(&arm.poses, link, &Point3::origin(), &mut arm.jacobian);
+    let v = Vector6::new(
+        params.admittance_gain * w.force.x,
+        params.admittance_gain * w.force.y,
+        params.admittance_gain * w.force.z,
+        params.admittance_rotational_gain * w.torque.x,
+        params.admittance_rotational_gain * w.torque.y,
+        params.admittance_rotational_gain * w.torque.z,
+    );
+    damped_pseudo_inverse(&arm.jacobian, params.admittance_damping) * v
 }

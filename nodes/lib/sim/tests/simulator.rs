@@ -183,7 +183,7 @@ fn bad_scene_names_the_field() {
     let e = sc.validate("kitchen.yaml").unwrap_err().to_string();
     assert!(e.contains("kitchen.yaml") && e.contains("radius"), "{e}");
     let mut sc = scene();
-    sc.robot.initial_joints_deg[1] = 170.0;
+    sc.robot.as_mut().unwrap().initial_joints_deg[1] = 170.0;
     let e = Simulator::new(model(), sc, SimParams::default()).unwrap_err().to_string();
     assert!(e.contains("initial_joints_deg[1]") && e.contains("limits"), "{e}");
 }

@@ -201,7 +201,7 @@ fn after_demonstrations(mut sim: Simulator, options: &SynthOptions, path: &Path)
 /// demonstrations, when nothing is held.
 pub fn continue_from(sim: &Simulator) -> Result<Simulator> {
     let mut scene = sim.scene().clone();
-    scene.robot.initial_joints_deg = sim.joint_positions().iter().map(|q| q.to_degrees()).collect();
+    scene.set_initial_joints_deg(sim.joint_positions().iter().map(|q| q.to_degrees()).collect());
     for o in &mut scene.objects {
         if let Some(now) = sim.objects().iter().find(|s| s.name == o.name) {
             let p = now.pose.translation.vector;

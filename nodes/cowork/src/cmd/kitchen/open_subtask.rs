@@ -39,14 +39,14 @@ pub struct OpenTeaching {
 /// and every object at its `/lwr/world` pose.
 pub fn scene_now(base: &Scene, world: &WorldState, joints: &JointState) -> Result<Scene> {
     let mut scene = base.clone();
-    if joints.position.len() != scene.robot.initial_joints_deg.len() {
+    if joints.position.len() != scene.initial_joints_deg().len() {
         bail!(
             "/joint_states has {} positions, the scene's arm {}",
             joints.position.len(),
-            scene.robot.initial_joints_deg.len()
+            scene.initial_joints_deg().len()
         );
     }
-    scene.robot.initial_joints_deg = joints.position.iter().map(|q| q.to_degrees()).collect();
+    scene.set_initial_joints_deg(joints.position.iter().map(|q| q.to_degrees()).collect());
     for o in &mut scene.objects {
         let Some(w) = world.objects.iter().find(|w| w.name == o.name) else { continue };
         if w.held {
@@ -133,7 +133,7 @@ mod tests {
     fn the_start_scene_has_the_executed_arm_and_objects_and_keeps_the_rest() {
         let base = kitchen();
         let scene = scene_now(&base, &world(false), &joints(7)).expect("scene");
-        assert!((scene.robot.initial_joints_deg[3] - 0.3f64.to_degrees()).abs() < 1e-9);
+        assert!((scene.initial_joints_deg()[3] - 0.3f64.to_degrees()).abs() < 1e-9);
         let tea = scene.objects.iter().find(|o| o.name == "tea").expect("tea");
         assert_eq!(tea.pose.position, [0.35, 0.40, 0.04]);
         assert_eq!(tea.pose.quaternion_xyzw, Some([0.0, 0.0, 0.6, 0.8]));
