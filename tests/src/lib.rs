@@ -72,6 +72,13 @@ impl Processes {
         self.graph.spawn(name, &program, args).unwrap_or_else(|e| panic!("{e}"));
     }
 
+    /// Starts `binary` (of the bin dir) with `args` as process `name` (its log `<name>.log`):
+    /// the same node twice, e.g. one per arm.
+    pub fn spawn_as(&mut self, name: &str, binary: &str, args: &[&str]) {
+        let program = self.bin_dir.join(binary);
+        self.graph.spawn(name, &program, args).unwrap_or_else(|e| panic!("{e}"));
+    }
+
     /// The log of `name` so far (empty when it has none).
     pub fn log(&self, name: &str) -> String {
         self.graph.log(name)

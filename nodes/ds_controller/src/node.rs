@@ -70,6 +70,8 @@ pub struct Adapter {
     max_force: f64,
     joint_names: Vec<String>,
     link_names: Vec<String>,
+    /// Prefix of the robot's tf frames (`left/` in namespace `/left`), empty for none.
+    frame_prefix: String,
     reach: Reach,
     far_speed: f64,
     default_linear_gain: f64,
@@ -85,6 +87,7 @@ impl Adapter {
             max_force: params.controller.ttc.max_force,
             joint_names: model.joint_names().to_vec(),
             link_names: model.link_names().to_vec(),
+            frame_prefix: String::new(),
             reach: Reach::of_model(model),
             far_speed: params.controller.scaling.far_speed,
             default_linear_gain: params.default_linear_gain,
@@ -165,7 +168,9 @@ impl Adapter {
     pub fn wrench(&self, msg: &WrenchStamped, q: Option<&JointVector>, now: f64) -> Result<ExternalWrench, Rejection> {
         let bad = |reason: String| Err(Rejection { reason });
         let frame = msg.header.frame_id.as_str();
-        let Some(link) = self.link_names.iter().position(|n| n == frame) else {
+        // The link's tf frame (`left/lwr_link_5` in namespace /left) or its model name.
+        let link_name = frame.strip_prefix(self.frame_prefix.as_str()).unwrap_or(frame);
+        let Some(link) = self.link_names.iter().position(|n| n == link_name) else {
             return bad(format!("unknown contact frame {:?} (expected a link of the robot model)", quote(frame)));
         };
         let f = &msg.wrench.force;
@@ -501,6 +506,12 @@ pub struct DsNode {
 }
 
 impl DsNode {
+    /// Names the robot's tf frames with `prefix` (`left/` for a node in namespace `/left`): a
+    /// push reported on `left/lwr_link_5` is on link `lwr_link_5`.
+    pub fn set_frame_prefix(&mut self, prefix: &str) {
+        prefix.clone_into(&mut self.adapter.frame_prefix);
+    }
+
     /// For `model` with `params` (validated) and the scene objects the damper knows.
     pub fn new(model: &RobotModel, params: &Params, scene: SceneObjects) -> Self {
         Self {

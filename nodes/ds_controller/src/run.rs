@@ -119,9 +119,12 @@ const QUEUE: usize = 1024;
 /// Runs the node: starts the real-time loop and the DDS input thread and serves the ROS side
 /// until Ctrl-C, `options.stop` or `options.duration_s`.
 pub fn run(node: RosNode, model: RobotModel, params: &Params, options: &RunOptions) -> Result<()> {
-    let base_frame = model.link_names().first().cloned().unwrap_or_default();
+    // In an arm's namespace (`--ros-args -r __ns:=/left`) the arm's frames are `left/...`.
+    let prefix = node.frame_prefix();
+    let base_frame = format!("{prefix}{}", model.link_names().first().cloned().unwrap_or_default());
     let scene = SceneObjects::from_params(&params.scene_objects, &base_frame)?;
     let mut ds = DsNode::new(&model, params, scene);
+    ds.set_frame_prefix(&prefix);
     let ctl = DsController::new(model, params.controller).map_err(|e| anyhow::anyhow!("controller: {e}"))?;
 
     // The DDS thread stops with the ROS side (its own flag) or on Ctrl-C / the duration.

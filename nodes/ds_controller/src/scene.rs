@@ -109,7 +109,15 @@ impl SceneObjects {
             let path = Path::new(&p.scene);
             let scene = cowork_sim::Scene::from_file(path)
                 .with_context(|| format!("ds_controller parameters: `scene_objects.scene` {}", path.display()))?;
-            camera = Some(Point3::from(scene.camera.pose.isometry().translation.vector));
+            // The camera in this arm's base frame (`left/lwr_base_link` is arm `left`'s).
+            let prefix = base_frame.rfind('/').map_or("", |i| &base_frame[..=i]);
+            let base = scene.arm_base_for_prefix(prefix).with_context(|| {
+                format!(
+                    "ds_controller parameters: `scene_objects.scene` {} has no arm for the frames {prefix:?} of this node's namespace",
+                    path.display()
+                )
+            })?;
+            camera = Some(Point3::from((base.inverse() * scene.camera.pose.isometry()).translation.vector));
             shapes.extend(scene.objects.into_iter().map(|o| (o.name, o.shape)));
         }
         Ok(Self::new(shapes, p.margin_m, p.max_age_s, base_frame).with_camera(camera))

@@ -49,8 +49,10 @@ fn run(args: Args) -> Result<()> {
     let model = RobotModel::from_urdf_file(&params.urdf)
         .with_context(|| format!("cannot load robot description {}", params.urdf))?;
     let use_sim_time = params.use_sim_time;
-    let fded = FdedNode::new(model, params)?;
+    let mut fded = FdedNode::new(model, params)?;
     let (node, options) = args.node.start("fded_distance", use_sim_time)?;
+    // In an arm's namespace (`--ros-args -r __ns:=/left`) the arm's frames are `left/...`.
+    fded.set_frame_prefix(&node.frame_prefix());
     fded_distance::run(node, fded, &options)?;
     Ok(())
 }

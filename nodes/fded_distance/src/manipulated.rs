@@ -69,6 +69,11 @@ impl ManipulatedObjects {
         Self { shapes, margin_m, max_age_s, base_frame: base_frame.to_owned(), history: VecDeque::with_capacity(MANIPULATED_HISTORY) }
     }
 
+    /// The frame the lists must be in.
+    pub fn set_base_frame(&mut self, base_frame: &str) {
+        base_frame.clone_into(&mut self.base_frame);
+    }
+
     /// Scene names with a known shape.
     pub fn known(&self) -> impl Iterator<Item = &str> {
         self.shapes.keys().map(String::as_str)

@@ -56,6 +56,10 @@ pub struct FdedNode {
     /// (stamp s, joint positions rad), stamps non-decreasing.
     joints: VecDeque<(f64, [f64; DOF])>,
     camera_from_tf: HashMap<String, Isometry3<f64>>,
+    /// Every `/tf_static` edge seen: child frame → (parent frame, child in parent), at most
+    /// [`MAX_CAMERA_FRAMES`]; a camera beside the base under one parent (`world` → arm base,
+    /// `world` → camera, as lwr_sim's scenes with named arms) is found through it.
+    static_edges: HashMap<String, (String, Isometry3<f64>)>,
     camera_default: Isometry3<f64>,
     msg: LinkDistances,
     markers: MarkerArray,
@@ -113,6 +117,7 @@ impl FdedNode {
             depth: DepthImage::default(),
             joints: VecDeque::with_capacity(JOINT_HISTORY),
             camera_from_tf: HashMap::new(),
+            static_edges: HashMap::new(),
             camera_default,
             notice: None,
             times: Vec::with_capacity(1024),
@@ -139,6 +144,29 @@ impl FdedNode {
     /// The robot base frame, in which results are expressed.
     pub fn base_frame(&self) -> &str {
         &self.base_frame
+    }
+
+    /// Names the robot's frames with `prefix` (`left/` for a node in namespace `/left`: the
+    /// arm's tf frames are `left/lwr_base_link`, ...): the base frame of the results, of the
+    /// camera transform looked up on `/tf_static` and of the manipulated-object lists.
+    pub fn set_frame_prefix(&mut self, prefix: &str) {
+        let base = format!("{prefix}{}", self.link_names[0]);
+        if let Some(m) = self.manipulated.as_mut() {
+            m.set_base_frame(&base);
+        }
+        self.base_frame = base;
+        self.camera_from_tf.clear();
+    }
+
+    /// Cameras that share the base's parent on `/tf_static` (and have no direct base → camera
+    /// edge): base ← camera = (parent ← base)⁻¹ (parent ← camera).
+    fn cameras_beside_the_base(&mut self) {
+        let Some((parent, base)) = self.static_edges.get(&self.base_frame) else { return };
+        for (child, (p, pose)) in &self.static_edges {
+            if p == parent && *child != self.base_frame && self.camera_from_tf.len() < MAX_CAMERA_FRAMES {
+                self.camera_from_tf.entry(child.clone()).or_insert_with(|| base.inv_mul(pose));
+            }
+        }
     }
 
     /// Camera info: (re)builds the engine when the intrinsics change.
@@ -232,10 +260,16 @@ impl FdedNode {
         let mut bad = None;
         let mut full = None;
         for t in &msg.transforms {
+            let child = t.child_frame_id.trim_start_matches('/');
+            if let Some(pose) = isometry(t) {
+                let parent = t.header.frame_id.trim_start_matches('/');
+                if self.static_edges.contains_key(child) || self.static_edges.len() < MAX_CAMERA_FRAMES {
+                    self.static_edges.insert(child.to_owned(), (parent.to_owned(), pose));
+                }
+            }
             if t.header.frame_id.trim_start_matches('/') != self.base_frame {
                 continue;
             }
-            let child = t.child_frame_id.trim_start_matches('/');
             match isometry(t) {
                 Some(pose) => {
                     if let Some(p) = self.camera_from_tf.get_mut(child) {
@@ -249,6 +283,7 @@ impl FdedNode {
                 None => bad = Some(child),
             }
         }
+        self.cameras_beside_the_base();
         match (bad, full) {
             (Some(child), _) => Err(skip(
                 "tf_static",
@@ -361,6 +396,13 @@ impl FdedNode {
         let Some((_, engine)) = self.engine.as_mut() else {
             unreachable!("checked above");
         };
+        // The table plane is level in the frame the base hangs from on /tf_static (the world of
+        // arms on a torso), else in the base frame.
+        let table_from_base = self.static_edges.get(&self.base_frame).map_or_else(Isometry3::identity, |(_, pose)| *pose);
+        engine.set_table_frame(table_from_base);
+        if let Some((_, cpu, _)) = self.flacco.as_mut() {
+            cpu.set_table_frame(table_from_base);
+        }
         let frame = Frame { stamp, depth: &self.depth, camera_pose: camera, joints: Some(&q) };
         if let Some((flacco, cpu, hits)) = self.flacco.as_mut() {
             let t0 = Instant::now();

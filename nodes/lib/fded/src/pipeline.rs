@@ -163,6 +163,8 @@ pub struct Fded {
     removal: Removal,
     /// Per link this frame: (object pixel, unoriented normal) already fitted.
     normals: Vec<(u32, Option<Vector3<f32>>)>,
+    /// The frame whose z = `table_z` is the table plane, ← robot base (identity: the base's).
+    table_from_base: Isometry3<f64>,
 }
 
 /// Half sizes of the windows: obstacle-side refinement (±(S − 1)) and normal fit (L points).
@@ -261,6 +263,7 @@ impl Fded {
             classify,
             removal,
             normals: Vec::with_capacity(links),
+            table_from_base: Isometry3::identity(),
         })
     }
 
@@ -352,12 +355,13 @@ impl Fded {
         transform_vertices(&self.meshes, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
         transform_points(&self.points, &self.poses, &cam_from_base, &self.cam, near, &mut self.buf);
         view_chunks(&self.meshes, &self.poses, &cam_from_base, &self.cam, near, self.removal.margin, &mut self.buf);
+        let table_camera = self.table_from_base * frame.camera_pose;
         self.classify.table = self.params.table_z.map(|z| {
-            let m = frame.camera_pose.rotation.to_rotation_matrix();
+            let m = table_camera.rotation.to_rotation_matrix();
             let m = m.matrix();
             TablePlane {
                 r2: [m[(2, 0)] as f32, m[(2, 1)] as f32, m[(2, 2)] as f32],
-                tz: frame.camera_pose.translation.vector.z as f32,
+                tz: table_camera.translation.vector.z as f32,
                 z_limit: (z + self.params.table_margin) as f32,
                 z_top: z as f32,
             }
@@ -414,6 +418,18 @@ impl Fded {
     /// Errors (the frame is not processed, the previous output is left as it was): image size
     /// differs from the intrinsics, missing or wrong-length joint state, NaN joints or camera
     /// pose. Invalid depth pixels (0, NaN, out of range) are simply not obstacles.
+    /// Where the table plane is: `table_z` is a height in the frame `table_from_base` maps the
+    /// robot base into (the world of an arm mounted on a torso: its base's z is not up), m.
+    /// Identity by default: the table plane is z = `table_z` of the base frame.
+    pub fn set_table_frame(&mut self, table_from_base: Isometry3<f64>) {
+        self.table_from_base = table_from_base;
+    }
+
+    /// The frame of the table plane ← robot base ([`set_table_frame`](Self::set_table_frame)).
+    pub fn table_frame(&self) -> &Isometry3<f64> {
+        &self.table_from_base
+    }
+
     pub fn process(&mut self, frame: &Frame<'_>, out: &mut FdedOutput) -> Result<()> {
         let mut times = self.front(frame)?;
         let t2 = Instant::now();

@@ -32,4 +32,4 @@ mod simulator;
 pub use error::{CommandError, Result, SimError};
 pub use params::SimParams;
 pub use scene::{ArmSetup, Camera, MIN_BASE_SEPARATION_M, Pose, RobotSetup, Scene, SceneObject, Shape};
-pub use simulator::{Arm, ArmClearance, FrameEdge, GripperState, ObjectState, Simulator, WORLD_FRAME, Wrench};
+pub use simulator::{Arm, ArmClearance, ArmHulls, FrameEdge, GripperState, ObjectState, Simulator, WORLD_FRAME, Wrench};

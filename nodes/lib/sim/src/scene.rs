@@ -278,6 +278,17 @@ impl Scene {
         }
     }
 
+    /// The base pose (scene frame) of the arm whose tf frames carry `frame_prefix` (`left/`
+    /// for arm `left`; empty for the one arm of a single-arm scene, whose base is the scene
+    /// frame). `None` when no arm matches.
+    pub fn arm_base_for_prefix(&self, frame_prefix: &str) -> Option<Isometry3<f64>> {
+        if !self.has_named_arms() {
+            return frame_prefix.is_empty().then(Isometry3::identity);
+        }
+        let name = frame_prefix.strip_suffix('/')?;
+        self.arms.iter().find(|a| a.name == name).map(|a| a.base.isometry())
+    }
+
     /// Whether the scene names its arms (`arms:`): its frame is `world` and each arm's topics
     /// and frames carry the arm's name.
     pub fn has_named_arms(&self) -> bool {

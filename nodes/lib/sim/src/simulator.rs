@@ -5,6 +5,7 @@ use cowork_robot::{
 };
 use nalgebra::{Isometry3, Point3, Vector3, Vector6};
 use parry3d_f64::bounding_volume::BoundingVolume;
+use parry3d_f64::query::PointQuery;
 use parry3d_f64::shape::{ConvexPolyhedron, Shape as ParryShape};
 
 use crate::error::{CommandError, Result, SimError};
@@ -161,6 +162,64 @@ pub struct ArmClearance {
     pub links: [usize; 2],
 }
 
+/// The convex hull of each link mesh of a model, for the clearance between arms of that model.
+#[derive(Debug, Clone)]
+pub struct ArmHulls {
+    /// Link frame; `None` for a link without a mesh.
+    hulls: Vec<Option<ConvexPolyhedron>>,
+}
+
+impl ArmHulls {
+    /// The hulls of `model`'s link meshes.
+    pub fn new(model: &RobotModel) -> Self {
+        let hulls = (0..model.link_count())
+            .map(|l| model.link_mesh(l).and_then(|m| ConvexPolyhedron::from_convex_hull(&m.vertices)))
+            .collect();
+        Self { hulls }
+    }
+
+    /// Distance (m) from `point` to the nearest link hull of one arm at base pose `base` (the
+    /// point's frame) with link poses `poses` (its base frame); 0 inside a hull.
+    pub fn distance_to_point(&self, base: &Isometry3<f64>, poses: &LinkPoses, point: &Point3<f64>) -> f64 {
+        self.hulls
+            .iter()
+            .enumerate()
+            .filter_map(|(l, h)| Some(h.as_ref()?.distance_to_point(&(base * poses.get(l)), point, true)))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The closest pair of links of two different arms, each arm given by its base pose (a
+    /// common frame) and its link poses (its base frame); `None` with fewer than two arms.
+    /// Link pairs whose bounding boxes are farther apart than the closest pair found so far
+    /// are skipped.
+    pub fn clearance<'a>(&self, arms: impl IntoIterator<Item = (Isometry3<f64>, &'a LinkPoses)>) -> Option<ArmClearance> {
+        let arms: Vec<_> = arms.into_iter().collect();
+        let mut best: Option<ArmClearance> = None;
+        for a in 0..arms.len() {
+            for b in a + 1..arms.len() {
+                for (la, ha) in self.hulls.iter().enumerate() {
+                    let Some(ha) = ha else { continue };
+                    let pa = arms[a].0 * arms[a].1.get(la);
+                    let box_a = ha.compute_aabb(&pa);
+                    for (lb, hb) in self.hulls.iter().enumerate() {
+                        let Some(hb) = hb else { continue };
+                        let pb = arms[b].0 * arms[b].1.get(lb);
+                        let bound = best.map_or(f64::INFINITY, |c| c.distance_m);
+                        if aabb_gap(&box_a, &hb.compute_aabb(&pb)) >= bound {
+                            continue;
+                        }
+                        let Ok(d) = parry3d_f64::query::distance(&pa, ha, &pb, hb) else { continue };
+                        if d < bound {
+                            best = Some(ArmClearance { distance_m: d, arms: [a, b], links: [la, lb] });
+                        }
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
 /// Kinematic simulator of one or more arms of the same model. See the crate documentation.
 #[derive(Debug)]
 pub struct Simulator {
@@ -171,8 +230,8 @@ pub struct Simulator {
     step_ns: i64,
     time_ns: i64,
     arms: Vec<Arm>,
-    /// Convex hull of each link's mesh, link frame (for arm–arm clearance); `None` without a mesh.
-    hulls: Vec<Option<ConvexPolyhedron>>,
+    /// The links' hulls for arm–arm clearance (two or more arms).
+    hulls: Option<ArmHulls>,
 }
 
 impl Simulator {
@@ -223,13 +282,7 @@ impl Simulator {
                 }
             })
             .collect();
-        let hulls = if arms.len() > 1 {
-            (0..model.link_count())
-                .map(|l| model.link_mesh(l).and_then(|m| ConvexPolyhedron::from_convex_hull(&m.vertices)))
-                .collect()
-        } else {
-            Vec::new()
-        };
+        let hulls = (arms.len() > 1).then(|| ArmHulls::new(&model));
         let step_ns = (params.step_s * 1e9).round() as i64;
         let sim = Self { model, params, scene, objects, step_ns, time_ns: 0, arms, hulls };
         if let Some(c) = sim.arm_clearance()
@@ -498,32 +551,10 @@ impl Simulator {
     }
 
     /// The closest pair of links of two different arms at the current joints (link meshes'
-    /// convex hulls), `None` with fewer than two arms. Links whose bounding boxes are farther
-    /// apart than the closest pair found so far are skipped.
+    /// convex hulls, [`ArmHulls`]), `None` with fewer than two arms.
     pub fn arm_clearance(&self) -> Option<ArmClearance> {
-        let mut best: Option<ArmClearance> = None;
-        for a in 0..self.arms.len() {
-            for b in a + 1..self.arms.len() {
-                for (la, ha) in self.hulls.iter().enumerate() {
-                    let Some(ha) = ha else { continue };
-                    let pa = self.arms[a].base * self.arms[a].poses.get(la);
-                    let box_a = ha.compute_aabb(&pa);
-                    for (lb, hb) in self.hulls.iter().enumerate() {
-                        let Some(hb) = hb else { continue };
-                        let pb = self.arms[b].base * self.arms[b].poses.get(lb);
-                        let bound = best.map_or(f64::INFINITY, |c| c.distance_m);
-                        if aabb_gap(&box_a, &hb.compute_aabb(&pb)) >= bound {
-                            continue;
-                        }
-                        let Ok(d) = parry3d_f64::query::distance(&pa, ha, &pb, hb) else { continue };
-                        if d < bound {
-                            best = Some(ArmClearance { distance_m: d, arms: [a, b], links: [la, lb] });
-                        }
-                    }
-                }
-            }
-        }
-        best
+        let hulls = self.hulls.as_ref()?;
+        hulls.clearance(self.arms.iter().map(|a| (a.base, &a.poses)))
     }
 
     /// Scene objects with their current poses.

@@ -108,6 +108,14 @@ impl FdedEngine {
         }
     }
 
+    /// Where the table plane is ([`Fded::set_table_frame`]).
+    pub fn set_table_frame(&mut self, table_from_base: nalgebra::Isometry3<f64>) {
+        match self {
+            Self::Cpu(c) => c.set_table_frame(table_from_base),
+            Self::Gpu(g) => g.set_table_frame(table_from_base),
+        }
+    }
+
     /// Runs one frame (see [`Fded::process`]). Input errors are returned as
     /// [`crate::Error`]; a device failure moves the engine to the CPU and retries the frame there.
     pub fn process(&mut self, frame: &Frame<'_>, out: &mut FdedOutput) -> crate::Result<()> {
@@ -124,7 +132,8 @@ impl FdedEngine {
             unreachable!("only the GPU arm falls through")
         };
         let params = FdedParams { backend: Backend::Cpu, ..g.params().clone() };
-        let cpu = Fded::new(g.model(), g.intrinsics(), params)?;
+        let mut cpu = Fded::new(g.model(), g.intrinsics(), params)?;
+        cpu.set_table_frame(*g.table_frame());
         *self = Self::Cpu(Box::new(cpu));
         match self {
             Self::Cpu(c) => c.process(frame, out),

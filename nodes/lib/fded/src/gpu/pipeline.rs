@@ -200,6 +200,16 @@ impl GpuFded {
         self.host.reset_tracks();
     }
 
+    /// Where the table plane is ([`crate::Fded::set_table_frame`]).
+    pub fn set_table_frame(&mut self, table_from_base: nalgebra::Isometry3<f64>) {
+        self.host.set_table_frame(table_from_base);
+    }
+
+    /// The frame of the table plane ← robot base.
+    pub fn table_frame(&self) -> &nalgebra::Isometry3<f64> {
+        self.host.table_frame()
+    }
+
     /// Runs the pipeline on one frame and fills `out`, as [`crate::Fded::process`] does.
     ///
     /// Timings: stages 1–4 as on the CPU; `minimum_us` the device part from upload to the end
