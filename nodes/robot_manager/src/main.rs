@@ -44,6 +44,8 @@ fn run(args: Args) -> Result<()> {
         rm.set_previewer(previewer, joint_names);
     }
     let (node, options) = args.node.start("robot_manager", use_sim_time)?;
+    // In an arm's namespace (`--ros-args -r __ns:=/left`) it serves that arm's commands only.
+    rm.set_arm(node.namespace().rsplit('/').next().unwrap_or_default());
     robot_manager::run(node, rm, tick, &options)?;
     Ok(())
 }

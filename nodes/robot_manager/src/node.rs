@@ -120,6 +120,9 @@ pub struct RobotManagerNode {
     last_world: Option<WorldState>,
     /// Joint names of the previewer's model (empty: no previewer).
     joint_names: Vec<String>,
+    /// The arm this manager serves (`left`, from its namespace `/left`); empty for the one arm
+    /// of a single-arm robot.
+    arm: String,
 }
 
 impl RobotManagerNode {
@@ -172,6 +175,7 @@ impl RobotManagerNode {
             last_warning: None,
             last_world: None,
             joint_names: Vec::new(),
+            arm: String::new(),
         };
         (node, problem)
     }
@@ -408,8 +412,39 @@ impl RobotManagerNode {
         self.run(Input::Speech(msg.data.clone()), now, outbox);
     }
 
-    /// `/supervisor/action`.
+    /// Serves arm `arm` of a robot with named arms (the last token of the node's namespace:
+    /// `left` for `/left`): only `/supervisor/action` commands for that arm are executed.
+    pub fn set_arm(&mut self, arm: &str) {
+        arm.clone_into(&mut self.arm);
+    }
+
+    /// The arm served ([`set_arm`](Self::set_arm)); empty for a single-arm robot.
+    pub fn arm(&self) -> &str {
+        &self.arm
+    }
+
+    /// `/supervisor/action`: executed when it is for this manager's arm. Another arm's command
+    /// is not this manager's business (ignored); a command naming an arm on a single-arm
+    /// robot, or naming none on a robot with named arms, is refused with a warning: nothing
+    /// moves on a command meant for another robot.
     pub fn on_action(&mut self, msg: &ActionCommand, now: Stamp, outbox: &mut Outbox) {
+        if msg.arm != self.arm {
+            let label = cowork_ros::text_prefix(&msg.label, 80);
+            let arm = cowork_ros::text_prefix(&msg.arm, 40);
+            if self.arm.is_empty() {
+                return self.warn(&format!(
+                    "/supervisor/action {} `{label}` is for arm `{arm}`: this robot_manager serves a single-arm robot (start one per arm in its namespace, --ros-args -r __ns:=/{arm}); ignored",
+                    msg.id
+                ));
+            }
+            if msg.arm.is_empty() {
+                return self.warn(&format!(
+                    "/supervisor/action {} `{label}` names no arm: this robot_manager serves arm `{}` of a robot with named arms; ignored",
+                    msg.id, self.arm
+                ));
+            }
+            return;
+        }
         self.run(Input::Action(ActionRequest { id: msg.id, label: msg.label.clone(), stop: msg.stop }), now, outbox);
     }
 

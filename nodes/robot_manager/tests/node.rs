@@ -220,3 +220,42 @@ fn the_bundled_preview_loads_and_bad_joint_states_are_dropped() {
     assert_eq!(n.warnings(), 1);
     assert!(n.last_warning().is_some_and(|w| w.contains("/joint_states") && w.contains(names[6].as_str())), "{:?}", n.last_warning());
 }
+
+#[test]
+fn an_arms_manager_runs_its_arms_commands_only() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // The per-arm block of the bundled file, as a manager started in /left reads it.
+    let text = std::fs::read_to_string(root().join("config/robot_manager.yaml")).unwrap();
+    let mut p: Params = cowork_ros::params::from_str_in(&text, "robot_manager", Some("/left"), "robot_manager.yaml").expect("/left block");
+    p.validate("robot_manager.yaml /left").expect("valid");
+    assert_eq!(p.manager.robot, "lwr_left", "each arm has its own primitive database");
+    assert!(p.manager.objects.contains_key("tomato") && p.preview.scene.ends_with("pizza.yaml"));
+    p.database_dir = dir.path().display().to_string();
+    let (mut n, _) = RobotManagerNode::new(p, 1);
+    n.set_arm("left");
+    let mut out = Outbox::default();
+    let mut w = world(1.0);
+    w.header.frame_id = "left/lwr_base_link".into();
+    n.on_world(&w, at(1.0), &mut out);
+    out.clear();
+    let command = |arm: &str| ActionCommand { id: 5, label: "noa9(tomato)".into(), arm: arm.into(), ..Default::default() };
+    // The right arm's command: not this manager's business, nothing happens.
+    n.on_action(&command("right"), at(1.01), &mut out);
+    assert!(out.motion.is_empty() && out.robot_stream.iter().all(|r| r.events.is_empty()), "{out:?}");
+    assert_eq!(n.warnings(), 0);
+    // A command naming no arm: refused with a warning.
+    n.on_action(&command(""), at(1.02), &mut out);
+    assert!(out.motion.is_empty());
+    assert_eq!(n.warnings(), 1);
+    // Its own: executed (here it fails: the database is empty, and the event says so).
+    n.on_action(&command("left"), at(1.03), &mut out);
+    let ev = out.robot_stream.iter().flat_map(|r| &r.events).next().expect("an event for the left arm's command");
+    assert!(ev.failed && ev.command_id == 5, "{ev:?}");
+
+    // A single-arm manager refuses a command for a named arm.
+    let (mut single, _) = RobotManagerNode::new(params(dir.path()), 1);
+    let mut out = Outbox::default();
+    single.on_action(&command("left"), at(1.0), &mut out);
+    assert!(out.motion.is_empty());
+    assert_eq!(single.warnings(), 1);
+}
