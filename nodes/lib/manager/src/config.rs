@@ -17,6 +17,10 @@ pub const WORLD: &str = "world";
 pub struct ManagerConfig {
     /// Robot name: the primitive database is `<database_dir>/<robot>.primitives.json`.
     pub robot: String,
+    /// Put before every label this manager learns (`l` → `lfoa1(tomato)`): the arms of a
+    /// dual-arm robot share one LTM, so their primitives need distinct names (thesis Fig. 5.24).
+    /// Lowercase letters; empty for none.
+    pub label_prefix: String,
     /// Radius r of the proximity sphere around every object, m (Table 5.3: 0.12), measured
     /// from the tool point to the object's surface.
     pub proximity_radius_m: f64,
@@ -101,6 +105,7 @@ impl Default for ManagerConfig {
             .collect();
         Self {
             robot: "lwr".into(),
+            label_prefix: String::new(),
             proximity_radius_m: 0.12,
             objects,
             dmp: DmpConfig { n_basis: 30, stiffness: 70.0, damping: None, gamma_times_duration: 5.0, ridge: 1e-8 },
@@ -131,6 +136,9 @@ impl ManagerConfig {
         };
         if self.robot.is_empty() || !self.robot.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
             return bad("robot", format!("{:?}", self.robot), "must be a non-empty file-name-safe word ([A-Za-z0-9_-])");
+        }
+        if !self.label_prefix.chars().all(|c| c.is_ascii_lowercase()) || self.label_prefix.len() > 8 {
+            return bad("label_prefix", format!("{:?}", self.label_prefix), "must be at most 8 lowercase letters");
         }
         for (field, v, lo) in [
             ("proximity_radius_m", self.proximity_radius_m, 0.0),

@@ -105,6 +105,8 @@ pub struct Note {
 /// The online segmenter.
 #[derive(Debug, Clone)]
 pub struct Segmenter {
+    /// Put before every label (`ManagerConfig::label_prefix`).
+    label_prefix: String,
     radius: f64,
     min_motion: f64,
     min_rotation: f64,
@@ -127,6 +129,7 @@ impl Segmenter {
     /// A segmenter numbering its labels from `next_index`.
     pub fn new(cfg: &ManagerConfig, next_index: u32) -> Self {
         Self {
+            label_prefix: cfg.label_prefix.clone(),
             radius: cfg.proximity_radius_m,
             min_motion: cfg.min_segment_motion_m,
             min_rotation: cfg.min_segment_rotation_rad,
@@ -286,7 +289,7 @@ impl Segmenter {
         };
         self.pending_gripper = Some((cmd, world.t));
         let index = self.take_index();
-        let id = format!("{}{index}", cmd.word());
+        let id = format!("{}{}{index}", self.label_prefix, cmd.word());
         out.push(Segment {
             index,
             label: format!("{id}({object})"),
@@ -346,7 +349,7 @@ impl Segmenter {
             return;
         }
         let index = self.take_index();
-        let id = format!("{}{index}", kind.prefix());
+        let id = format!("{}{}{index}", self.label_prefix, kind.prefix());
         out.push(Segment {
             index,
             label: format!("{id}({object})"),

@@ -21,6 +21,20 @@ fn taught_with(cfg: ManagerConfig) -> Driver {
 }
 
 #[test]
+fn an_arms_label_prefix_names_its_primitives_apart() {
+    // The left arm of a dual-arm robot: `l` before every label, as the thesis's lfoa1 (Fig. 5.24).
+    let mut d = taught_with(ManagerConfig { label_prefix: "l".into(), ..ManagerConfig::default() });
+    let labels = segments(&d.take());
+    assert_eq!(labels[..3], ["lfoa1(water)", "lnoa2(water)", "lclose3(water)"], "{labels:?}");
+    assert!(d.manager.database().get("lnoa2").is_some());
+    // Executed by the prefixed label.
+    let out = run_action(&mut d, 7, "lfoa1(water)");
+    assert!(!orders(&out).is_empty(), "lfoa1 runs");
+    let bad = ManagerConfig { label_prefix: "L1".into(), ..ManagerConfig::default() };
+    assert!(bad.validate().unwrap_err().to_string().contains("label_prefix"));
+}
+
+#[test]
 fn a_pour_demonstration_is_segmented_by_spheres_and_gripper_commands() {
     let mut d = taught();
     let out = d.take();
