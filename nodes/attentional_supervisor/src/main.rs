@@ -45,6 +45,10 @@ fn run(args: Args) -> Result<()> {
         }
     }
     let ltm = Ltm::load(&args.ltm).with_context(|| format!("cannot load the LTM {}", args.ltm.display()))?;
+    params
+        .areas
+        .check_arms(&place, ltm.arms())
+        .with_context(|| format!("the parameters do not fit the arms of {}", args.ltm.display()))?;
     let supervisor = Supervisor::new(ltm, &args.task, params.attention.clone())
         .with_context(|| format!("cannot allocate task {} from {}", args.task, args.ltm.display()))?;
     let (node, options) = args.node.start("attentional_supervisor", params.use_sim_time)?;

@@ -7,11 +7,13 @@ use std::collections::BTreeMap;
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{ActionCommand, ActionEvent, ObjectStream, RobotStream, WmNode, WorkingMemory};
 use cowork_msgs::std_msgs::{Header, String as RosString};
+use cowork_msgs::tf2_msgs::TFMessage;
 use cowork_msgs::topics;
 use cowork_ros::Warning;
 use cowork_supervisor::{ActionKind, Decision, Event, GripperState, ObjectObs, Supervisor, WmSnapshot};
 use serde::Serialize;
 
+use crate::areas::Areas;
 use crate::params::{MAX_ACTION_RESENDS, Params};
 
 /// Identical warnings are logged at most once per this many seconds.
@@ -23,7 +25,9 @@ pub const MAX_SPEECH_CHARS: usize = 200;
 /// Characters of a library warning that are logged (it may quote a speech command).
 pub const MAX_WARNING_CHARS: usize = 300;
 
-/// What the node takes in.
+/// What the node takes in. A single-arm LTM reads the root topics (`ObjectStream`,
+/// `RobotStream`); one that declares arms reads each arm's (`ArmObjectStream`,
+/// `ArmRobotStream`) and `/tf_static`.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Input {
     /// `/object_stream`: object distances and visibility.
@@ -32,6 +36,22 @@ pub enum Input {
     RobotStream(RobotStream),
     /// `/speech_command`.
     Speech(RosString),
+    /// `/<arm>/object_stream` of an arm the LTM declares (poses in that arm's base frame).
+    ArmObjectStream {
+        /// The arm, as the LTM names it (`left`).
+        arm: String,
+        /// The message.
+        msg: ObjectStream,
+    },
+    /// `/<arm>/robot_stream` of an arm the LTM declares.
+    ArmRobotStream {
+        /// The arm, as the LTM names it (`left`).
+        arm: String,
+        /// The message.
+        msg: RobotStream,
+    },
+    /// `/tf_static`: the arm bases in the world frame (dual-arm).
+    TfStatic(TFMessage),
 }
 
 /// What the node puts out, in the order it happened.
@@ -100,13 +120,27 @@ pub fn kind_code(kind: ActionKind) -> u8 {
 
 /// Turns the `RobotStream` state stream into edge events: the gripper is reported only when
 /// its state or held object changes (grasp and release rewrite `<object>.taken`, so a
-/// repeated report must not be replayed).
+/// repeated report must not be replayed). [`Default`]: the one arm of a single-arm robot
+/// (`/robot_stream`, events with no arm); [`for_arm`](Self::for_arm): one arm of a dual-arm
+/// robot, each with its own decoder (its own last gripper state).
 #[derive(Debug, Default, Clone)]
 pub struct RobotStreamDecoder {
     gripper: Option<(u8, String)>,
+    /// `(arm, /<arm>/robot_stream)`; `None`: the single arm on `/robot_stream`.
+    arm: Option<(String, String)>,
 }
 
 impl RobotStreamDecoder {
+    /// The decoder of arm `arm`'s `/<arm>/robot_stream`: every event it yields names `arm`.
+    pub fn for_arm(arm: &str) -> Self {
+        Self { gripper: None, arm: Some((arm.to_owned(), topics::ROBOT_STREAM.name_in(&format!("/{arm}")).into_owned())) }
+    }
+
+    /// The topic decoded: `/robot_stream` or `/<arm>/robot_stream`.
+    pub fn topic(&self) -> &str {
+        self.arm.as_ref().map_or(topics::ROBOT_STREAM.name, |(_, t)| t.as_str())
+    }
+
     /// Appends the events of `msg` to `events` and what was wrong with it to `problems`.
     pub fn decode(&mut self, msg: &RobotStream, events: &mut Vec<Event>, problems: &mut Vec<String>) {
         let mut warnings = Vec::new();
@@ -115,14 +149,17 @@ impl RobotStreamDecoder {
     }
 
     /// [`decode`](Self::decode) with the problems as [`Warning`]s (kind
-    /// `/robot_stream:<field>`).
+    /// `/robot_stream:<field>`, `/left/robot_stream:<field>`).
     pub fn decode_warnings(&mut self, msg: &RobotStream, events: &mut Vec<Event>, problems: &mut Vec<Warning>) {
-        let topic = topics::ROBOT_STREAM.name;
+        let (arm, topic) = match &self.arm {
+            Some((a, t)) => (Some(a), t.as_str()),
+            None => (None, topics::ROBOT_STREAM.name),
+        };
         for e in &msg.events {
             if e.failed {
-                events.push(Event::ActionFailed { arm: None, label: e.label.clone(), reason: e.reason.clone() });
+                events.push(Event::ActionFailed { arm: arm.cloned(), label: e.label.clone(), reason: e.reason.clone() });
             } else if e.done {
-                events.push(Event::ActionDone { arm: None, label: e.label.clone() });
+                events.push(Event::ActionDone { arm: arm.cloned(), label: e.label.clone() });
             }
         }
         for s in &msg.segments {
@@ -138,7 +175,7 @@ impl RobotStreamDecoder {
                 continue;
             };
             let object = (!s.object_name.is_empty()).then(|| s.object_name.clone());
-            events.push(Event::Segment { arm: None, label: s.label.clone(), kind, object });
+            events.push(Event::Segment { arm: arm.cloned(), label: s.label.clone(), kind, object });
         }
         let state = match msg.gripper_state {
             RobotStream::GRIPPER_OPEN => GripperState::Open,
@@ -158,27 +195,49 @@ impl RobotStreamDecoder {
         }
         let object = (!now.1.is_empty()).then(|| now.1.clone());
         self.gripper = Some(now);
-        events.push(Event::Gripper { arm: None, state, object });
+        events.push(Event::Gripper { arm: arm.cloned(), state, object });
     }
 }
 
 /// Remembers the id of the command running on each arm, so an abort names what it aborts.
+/// [`Default`] passes commands for any arm; [`for_arms`](Self::for_arms) only for the arms
+/// given (what the node uses: a command for an arm the LTM does not declare is never sent).
 #[derive(Debug, Default, Clone)]
 pub struct CommandTracker {
     running: BTreeMap<String, (u32, String)>,
+    /// The arms commands may name (`""`: the single arm); `None`: any.
+    arms: Option<Vec<String>>,
 }
 
 impl CommandTracker {
-    /// The `/supervisor/action` message for a decision, if it is one (`Action` or `Stop`).
+    /// A tracker that turns only decisions for `arms` into commands (the library's
+    /// `State::arm_names`: one empty name for a single arm).
+    pub fn for_arms(arms: &[String]) -> Self {
+        Self { running: BTreeMap::new(), arms: Some(arms.to_vec()) }
+    }
+
+    /// Whether a command may name `arm` (`""`: none).
+    pub fn declares(&self, arm: &str) -> bool {
+        self.arms.as_ref().is_none_or(|a| a.iter().any(|x| x == arm))
+    }
+
+    /// The `/supervisor/action` message for a decision, if it is one (`Action` or `Stop`) and
+    /// its arm is [declared](Self::declares).
     pub fn command(&mut self, decision: &Decision, stamp: Time) -> Option<ActionCommand> {
         let header = Header { stamp, frame_id: String::new() };
         match decision {
             Decision::Action { id, arm, label, .. } => {
                 let arm = arm.clone().unwrap_or_default();
+                if !self.declares(&arm) {
+                    return None;
+                }
                 self.running.insert(arm.clone(), (*id, label.clone()));
                 Some(ActionCommand { header, id: *id, label: label.clone(), arm, stop: false })
             }
-            Decision::Stop { arm, label, .. } => Some(self.stop(arm.as_deref().unwrap_or(""), label, header)),
+            Decision::Stop { arm, label, .. } => {
+                let arm = arm.as_deref().unwrap_or("");
+                self.declares(arm).then(|| self.stop(arm, label, header))
+            }
             _ => None,
         }
     }
@@ -277,13 +336,29 @@ pub fn warning_kind(w: &cowork_supervisor::Warning) -> &'static str {
     }
 }
 
+/// What the node keeps per arm: one with an empty name on the root topics for a single-arm
+/// LTM, one per declared arm on its namespace's topics otherwise.
+#[derive(Debug, Clone)]
+struct ArmIo {
+    /// As the LTM names it (`""`: the single arm).
+    name: String,
+    /// Its own last gripper state.
+    decoder: RobotStreamDecoder,
+    /// The arm's last action command until an event of its id arrives on the arm's
+    /// robot stream: (command, when it was last sent s, how often it was sent again).
+    unacked: Option<(ActionCommand, f64, u32)>,
+}
+
 /// The supervisor with its message conversions; no I/O.
 #[derive(Debug)]
 pub struct SupervisorNode {
     sup: Supervisor,
     params: Params,
-    decoder: RobotStreamDecoder,
     tracker: CommandTracker,
+    /// Indexed like the library's arms (`State::arm_names`).
+    arms: Vec<ArmIo>,
+    /// Dual-arm: the per-arm object streams, arm bases and areas; `None` for a single arm.
+    areas: Option<Areas>,
     objects_seen: bool,
     events: Vec<Event>,
     pending_problems: Vec<Warning>,
@@ -292,20 +367,31 @@ pub struct SupervisorNode {
     scratch: Vec<Output>,
     warnings: u64,
     last_tick_s: f64,
-    /// The last action command until a `/robot_stream` event of its id arrives: (command, when
-    /// it was last sent s, how often it was sent again).
-    unacked: Option<(ActionCommand, f64, u32)>,
 }
 
 impl SupervisorNode {
     /// Wraps a supervisor; `params.wait_for_object_stream` gates the first decision, and
-    /// the run loop ticks at `params.tick_rate_hz`.
+    /// the run loop ticks at `params.tick_rate_hz`. When the LTM declares arms the node reads
+    /// each arm's streams and `/tf_static` (see the crate docs); `params.areas` is used then.
     pub fn new(sup: Supervisor, params: &Params) -> Self {
+        let state = sup.state();
+        let dual = state.is_dual();
+        let arms = state
+            .arm_names()
+            .iter()
+            .map(|a| ArmIo {
+                name: a.clone(),
+                decoder: if dual { RobotStreamDecoder::for_arm(a) } else { RobotStreamDecoder::default() },
+                unacked: None,
+            })
+            .collect();
+        let areas = dual.then(|| Areas::new(state.arm_names(), &params.areas, &params.attention.central_area));
         Self {
+            tracker: CommandTracker::for_arms(state.arm_names()),
             sup,
             params: params.clone(),
-            decoder: RobotStreamDecoder::default(),
-            tracker: CommandTracker::default(),
+            arms,
+            areas,
             objects_seen: false,
             events: Vec::new(),
             pending_problems: Vec::new(),
@@ -314,7 +400,6 @@ impl SupervisorNode {
             scratch: Vec::new(),
             warnings: 0,
             last_tick_s: 0.0,
-            unacked: None,
         }
     }
 
@@ -333,9 +418,26 @@ impl SupervisorNode {
         self.sup
     }
 
-    /// Whether the supervisor decides (the first `/object_stream` arrived, or no wait).
+    /// The arms the node reads per-arm topics for (the LTM's `arms([...])`); empty for a
+    /// single-arm LTM, which reads the root topics.
+    pub fn dual_arms(&self) -> Vec<String> {
+        if self.areas.is_some() { self.arms.iter().map(|a| a.name.clone()).collect() } else { Vec::new() }
+    }
+
+    /// Dual-arm: the object merge with the arm bases known so far; `None` for a single arm.
+    pub fn areas(&self) -> Option<&Areas> {
+        self.areas.as_ref()
+    }
+
+    /// Whether the supervisor decides: no wait, or the first `/object_stream` arrived (with
+    /// arms: the first `/<arm>/object_stream` of every arm, so no arm's first decision lacks
+    /// its distances).
     pub fn ready(&self) -> bool {
-        self.objects_seen || !self.params.wait_for_object_stream
+        !self.params.wait_for_object_stream
+            || match &self.areas {
+                Some(a) => a.all_seen(),
+                None => self.objects_seen,
+            }
     }
 
     /// Warnings so far (library warnings and malformed messages).
@@ -359,31 +461,96 @@ impl SupervisorNode {
             Input::ObjectStream(m) => self.on_object_stream(m),
             Input::RobotStream(m) => self.on_robot_stream(m),
             Input::Speech(m) => self.on_speech(m),
+            Input::ArmObjectStream { arm, msg } => self.on_arm_object_stream(arm, msg),
+            Input::ArmRobotStream { arm, msg } => self.on_arm_robot_stream(arm, msg),
+            Input::TfStatic(m) => self.on_tf_static(m),
         }
     }
 
-    /// `/object_stream`.
+    /// `/object_stream` (single arm; with arms it carries no arm and is dropped with a warning).
     pub fn on_object_stream(&mut self, msg: &ObjectStream) {
+        if self.areas.is_some() {
+            return self.root_topic_with_arms(topics::OBJECT_STREAM.name);
+        }
         self.objects_seen = true;
         self.sup.handle(&objects_event(msg), self.now_hint());
     }
 
-    /// `/robot_stream`.
+    /// `/robot_stream` (single arm; with arms it carries no arm and is dropped with a warning).
     pub fn on_robot_stream(&mut self, msg: &RobotStream) {
-        if self.unacked.as_ref().is_some_and(|(c, _, _)| msg.events.iter().any(|e| e.command_id == c.id || e.label == c.label)) {
-            self.unacked = None;
+        if self.areas.is_some() {
+            return self.root_topic_with_arms(topics::ROBOT_STREAM.name);
         }
-        self.events.clear();
-        self.decoder.decode_warnings(msg, &mut self.events, &mut self.pending_problems);
-        let t = self.now_hint();
-        for e in &self.events {
-            self.sup.handle(e, t);
+        self.robot_stream(0, msg);
+    }
+
+    /// `/<arm>/object_stream`: merged with the other arms' newest into one `objects` event
+    /// with per-arm distances and areas ([`Areas::event`]).
+    pub fn on_arm_object_stream(&mut self, arm: &str, msg: &ObjectStream) {
+        let Some(i) = self.declared_arm(arm, topics::OBJECT_STREAM.name) else { return };
+        let Some(areas) = self.areas.as_mut() else { return };
+        areas.on_object_stream(i, msg);
+        let event = areas.event(&mut self.pending_problems);
+        self.sup.handle(&event, self.now_hint());
+    }
+
+    /// `/<arm>/robot_stream`: events tagged with `arm`.
+    pub fn on_arm_robot_stream(&mut self, arm: &str, msg: &RobotStream) {
+        if let Some(i) = self.declared_arm(arm, topics::ROBOT_STREAM.name) {
+            self.robot_stream(i, msg);
+        }
+    }
+
+    /// `/tf_static` (dual-arm; ignored for a single arm): the arm bases. Objects already
+    /// reported are placed again at once, so their areas do not wait for the next stream.
+    pub fn on_tf_static(&mut self, msg: &TFMessage) {
+        let Some(areas) = self.areas.as_mut() else { return };
+        let before: Vec<_> = (0..self.arms.len()).map(|i| areas.bases().get(i).copied()).collect();
+        areas.on_tf_static(msg, &mut self.pending_problems);
+        let changed = (0..self.arms.len()).any(|i| areas.bases().get(i).copied() != before[i]);
+        if changed {
+            let event = areas.event(&mut self.pending_problems);
+            self.sup.handle(&event, self.now_hint());
         }
     }
 
     /// `/speech_command`.
     pub fn on_speech(&mut self, msg: &RosString) {
         self.sup.handle(&speech_event(msg), self.now_hint());
+    }
+
+    fn robot_stream(&mut self, i: usize, msg: &RobotStream) {
+        let Some(io) = self.arms.get_mut(i) else { return };
+        if io.unacked.as_ref().is_some_and(|(c, _, _)| msg.events.iter().any(|e| e.command_id == c.id || e.label == c.label)) {
+            io.unacked = None;
+        }
+        self.events.clear();
+        io.decoder.decode_warnings(msg, &mut self.events, &mut self.pending_problems);
+        let t = self.now_hint();
+        for e in &self.events {
+            self.sup.handle(e, t);
+        }
+    }
+
+    /// The index of `arm` when the LTM declares it; else a warning naming the topic.
+    fn declared_arm(&mut self, arm: &str, topic: &str) -> Option<usize> {
+        let i = self.areas.as_ref().and_then(|_| self.arms.iter().position(|a| a.name == arm));
+        if i.is_none() {
+            let arms = self.dual_arms();
+            let what = if arms.is_empty() { "the LTM declares no arms (a single arm reads the root topics)".to_owned() } else { format!("not an arm of the LTM ({})", arms.join(", ")) };
+            self.pending_problems.push(Warning::new(
+                "supervisor:undeclared_arm",
+                format!("/{}{topic}: {what}; dropped", cowork_ros::quote(arm)),
+            ));
+        }
+        i
+    }
+
+    fn root_topic_with_arms(&mut self, topic: &str) {
+        self.pending_problems.push(Warning::new(
+            format!("{topic}:arms"),
+            format!("{topic} carries no arm and the LTM declares arms ({}): each arm's /<arm>{topic} is read instead; dropped", self.dual_arms().join(", ")),
+        ));
     }
 
     // Events take effect at the next tick; they carry the time of the last one.
@@ -393,7 +560,8 @@ impl SupervisorNode {
 
     /// One decision cycle at `now`: reports the problems of the messages since the last tick,
     /// runs the supervisor (once ready) and appends, per decision, the `/supervisor/action`
-    /// message it implies, the decision itself (or its warning) to `out`.
+    /// message it implies, the decision itself (or its warning) to `out`. A command for an arm
+    /// the LTM does not declare is not sent (a warning instead; the library never decides one).
     pub fn on_tick(&mut self, now: Time, out: &mut Vec<Output>) {
         self.problems.clear();
         std::mem::swap(&mut self.problems, &mut self.pending_problems);
@@ -407,9 +575,26 @@ impl SupervisorNode {
         self.resend_unacked(now, out);
         self.sup.tick(now.to_secs_f64(), &mut self.decisions);
         for d in &self.decisions {
-            if let Some(c) = self.tracker.command(d, now) {
-                self.unacked = (!c.stop).then(|| (c.clone(), now.to_secs_f64(), 0));
-                out.push(Output::Action(c));
+            match self.tracker.command(d, now) {
+                Some(c) => {
+                    if let Some(io) = self.arms.iter_mut().find(|a| a.name == c.arm) {
+                        io.unacked = (!c.stop).then(|| (c.clone(), now.to_secs_f64(), 0));
+                    }
+                    out.push(Output::Action(c));
+                }
+                None => {
+                    if let Decision::Action { arm, label, .. } | Decision::Stop { arm, label, .. } = d {
+                        self.warnings += 1;
+                        out.push(Output::Warning(Warning::new(
+                            "supervisor:undeclared_arm",
+                            format!(
+                                "command `{}` for arm `{}`, which the LTM does not declare: not sent",
+                                cowork_ros::text_prefix(label, MAX_WARNING_CHARS),
+                                arm.as_deref().unwrap_or("")
+                            ),
+                        )));
+                    }
+                }
             }
             match d {
                 Decision::Warning { message, warning } => {
@@ -424,34 +609,37 @@ impl SupervisorNode {
         }
     }
 
-    /// Sends the last action command again when no `/robot_stream` event of its id came within
-    /// `action_resend_s` (at most [`MAX_ACTION_RESENDS`] times, each with a warning). The
-    /// manager starts a command it missed and ignores one it runs (same label).
+    /// Sends an arm's last action command again when no event of its id came on that arm's
+    /// robot stream within `action_resend_s` (at most [`MAX_ACTION_RESENDS`] times, each with
+    /// a warning). The manager starts a command it missed and ignores one it runs (same label).
     fn resend_unacked(&mut self, now: Time, out: &mut Vec<Output>) {
         let now_s = now.to_secs_f64();
-        let Some((cmd, sent_s, resends)) = self.unacked.as_mut() else { return };
-        if now_s < *sent_s {
-            // The clock went back (a new simulation): count from now.
-            *sent_s = now_s;
-            return;
+        for io in &mut self.arms {
+            let topic = io.decoder.topic();
+            let Some((cmd, sent_s, resends)) = io.unacked.as_mut() else { continue };
+            if now_s < *sent_s {
+                // The clock went back (a new simulation): count from now.
+                *sent_s = now_s;
+                continue;
+            }
+            if now_s - *sent_s < self.params.action_resend_s {
+                continue;
+            }
+            let what = format!("action {} `{}`", cmd.id, cowork_ros::text_prefix(&cmd.label, MAX_WARNING_CHARS));
+            let message = if *resends >= MAX_ACTION_RESENDS {
+                let m = format!("no {topic} event for {what} after {MAX_ACTION_RESENDS} resends: not sent again (is robot_manager running?)");
+                io.unacked = None;
+                m
+            } else {
+                *resends += 1;
+                *sent_s = now_s;
+                cmd.header.stamp = now;
+                out.push(Output::Action(cmd.clone()));
+                format!("no {topic} event for {what} within {} s: sent again ({}/{MAX_ACTION_RESENDS})", self.params.action_resend_s, *resends)
+            };
+            self.warnings += 1;
+            out.push(Output::Warning(Warning::new("supervisor:action_resent", message)));
         }
-        if now_s - *sent_s < self.params.action_resend_s {
-            return;
-        }
-        let what = format!("action {} `{}`", cmd.id, cowork_ros::text_prefix(&cmd.label, MAX_WARNING_CHARS));
-        let message = if *resends >= MAX_ACTION_RESENDS {
-            let m = format!("no /robot_stream event for {what} after {MAX_ACTION_RESENDS} resends: not sent again (is robot_manager running?)");
-            self.unacked = None;
-            m
-        } else {
-            *resends += 1;
-            *sent_s = now_s;
-            cmd.header.stamp = now;
-            out.push(Output::Action(cmd.clone()));
-            format!("no /robot_stream event for {what} within {} s: sent again ({}/{MAX_ACTION_RESENDS})", self.params.action_resend_s, *resends)
-        };
-        self.warnings += 1;
-        out.push(Output::Warning(Warning::new("supervisor:action_resent", message)));
     }
 
     /// [`on_tick`](Self::on_tick) keeping only the `/supervisor/action` messages (appended to

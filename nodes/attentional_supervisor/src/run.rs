@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::topics;
 use cowork_ros::{DdsSource, Event, InputSource, RosNode, RunOptions, Warnings};
@@ -134,8 +134,25 @@ impl LtmSaver {
 /// `node` must have been created with `use_sim_time` = the node's `params().use_sim_time`.
 pub fn run(node: RosNode, mut sn: SupervisorNode, save_ltm: Option<&Path>, options: &RunOptions) -> Result<Supervisor> {
     let mut source = DdsSource::new(node, options.start())?;
-    source.add(&topics::ROBOT_STREAM, Input::RobotStream)?;
-    source.add(&topics::OBJECT_STREAM, Input::ObjectStream)?;
+    let arms = sn.dual_arms();
+    if arms.is_empty() {
+        source.add(&topics::ROBOT_STREAM, Input::RobotStream)?;
+        source.add(&topics::OBJECT_STREAM, Input::ObjectStream)?;
+    } else {
+        // The bases first: objects that arrive with them are placed at once.
+        source.add(&topics::TF_STATIC, Input::TfStatic)?;
+        for arm in &arms {
+            let ns = format!("/{arm}");
+            let a = arm.clone();
+            source
+                .add_in(&topics::ROBOT_STREAM, &ns, move |msg| Input::ArmRobotStream { arm: a.clone(), msg })
+                .with_context(|| format!("arm `{arm}` of the LTM: {}", topics::ROBOT_STREAM.name_in(&ns)))?;
+            let a = arm.clone();
+            source
+                .add_in(&topics::OBJECT_STREAM, &ns, move |msg| Input::ArmObjectStream { arm: a.clone(), msg })
+                .with_context(|| format!("arm `{arm}` of the LTM: {}", topics::OBJECT_STREAM.name_in(&ns)))?;
+        }
+    }
     source.add(&topics::SPEECH_COMMAND, Input::Speech)?;
     let actions = source.node().advertise(&topics::SUPERVISOR_ACTION)?;
     let wm = source.node().advertise(&topics::WORKING_MEMORY)?;
@@ -147,8 +164,35 @@ pub fn run(node: RosNode, mut sn: SupervisorNode, save_ltm: Option<&Path>, optio
         if params.use_sim_time { "/clock (waiting for the first)" } else { "wall-clock" },
         save_ltm.map_or("nowhere (no --save-ltm)".into(), |p| p.display().to_string())
     );
+    if !arms.is_empty() {
+        let a = &params.areas;
+        tracing::info!(
+            "arms {}: reading {}, /tf_static ({}); commands name the arm; central area `{}` = x in [{}, {}], y in [{}, {}] m ({}), `{}` above it in y, `{}` below",
+            arms.join(", "),
+            arms.iter()
+                .flat_map(|arm| {
+                    let ns = format!("/{arm}");
+                    [topics::ROBOT_STREAM.name_in(&ns).into_owned(), topics::OBJECT_STREAM.name_in(&ns).into_owned()]
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
+            arms.iter().map(|arm| format!("{} -> {}", a.frame, a.base_frame(arm))).collect::<Vec<_>>().join(", "),
+            params.attention.central_area,
+            a.central.x[0],
+            a.central.x[1],
+            a.central.y[0],
+            a.central.y[1],
+            a.frame,
+            a.left_arm,
+            a.right_arm
+        );
+    }
     if params.wait_for_object_stream {
-        tracing::info!("deciding nothing before the first {}", topics::OBJECT_STREAM.name);
+        if arms.is_empty() {
+            tracing::info!("deciding nothing before the first {}", topics::OBJECT_STREAM.name);
+        } else {
+            tracing::info!("deciding nothing before the first /<arm>{} of every arm", topics::OBJECT_STREAM.name);
+        }
     }
     let mut warnings = Warnings::new(WARNING_REPEAT_S);
     let mut saver = LtmSaver { path: save_ltm.map(Path::to_owned), pending: None, retry_at_s: 0.0, told_unsaved: false };
@@ -174,7 +218,11 @@ pub fn run(node: RosNode, mut sn: SupervisorNode, save_ltm: Option<&Path>, optio
 
     let now = source.node().now();
     for c in sn.shutdown_commands(now) {
-        tracing::info!("stopping {} on shutdown", c.label);
+        if c.arm.is_empty() {
+            tracing::info!("stopping {} on shutdown", c.label);
+        } else {
+            tracing::info!("stopping {} on arm {} on shutdown", c.label, c.arm);
+        }
         if let Some(w) = actions.send(c) {
             warnings.warn(cowork_ros::monotonic_s(), &w);
         }
@@ -207,12 +255,15 @@ fn log_decision(d: &Decision) {
             "stop {label}{}: {reason}",
             arm.as_deref().map(|a| format!(" on arm {a}")).unwrap_or_default()
         ),
-        Decision::AwaitDemonstration { subtask, .. } => {
-            tracing::info!("subtask {subtask} is open: waiting for a demonstration (say `teach`)")
-        }
-        Decision::Attached { label, kind, subtask, releaser, .. } => {
-            tracing::info!("learned {label} ({}) in {subtask}, releaser {releaser}", kind.keyword())
-        }
+        Decision::AwaitDemonstration { arm, subtask } => tracing::info!(
+            "subtask {subtask}{} is open: waiting for a demonstration (say `teach`)",
+            arm.as_deref().map(|a| format!(" of arm {a}")).unwrap_or_default()
+        ),
+        Decision::Attached { arm, label, kind, subtask, releaser } => tracing::info!(
+            "learned {label} ({}) in {subtask}{}, releaser {releaser}",
+            kind.keyword(),
+            arm.as_deref().map(|a| format!(" on arm {a}")).unwrap_or_default()
+        ),
         Decision::HumanAssigned { subtask } => tracing::info!("{subtask} assigned to the person"),
         Decision::Mode { mode } => tracing::info!("mode: {mode:?}"),
         Decision::Accomplished { behaviour } => tracing::info!("accomplished: {behaviour}"),

@@ -2,8 +2,12 @@
 //! in the same process that plays the robot manager and the person: pouring taught through
 //! `/robot_stream` segments and `/speech_command` (LTM saved by `--save-ltm`), then executed on
 //! `/clock` time; cooperative coffee on the wall clock, where the person takes the bottle and
-//! the robot switches to add(coffee). Stimulus → `/supervisor/action` latencies are printed
+//! the robot switches to add(coffee); the dual-arm pizza with two robot managers on
+//! `/left/...` and `/right/...` and the arm bases on `/tf_static`. Stimulus →
+//! `/supervisor/action` latencies are printed
 //! (`cargo test -p attentional_supervisor --test over_dds -- --nocapture`).
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -447,4 +451,97 @@ fn cooperative_coffee_replans_within_a_tick_over_dds() {
     // One period plus the inbound DDS hop; 15 ms of slack for a loaded, shared test machine.
     assert!(switch.to_tick_ms <= TICK_S * 1e3 + 15.0, "switch decided {:.2} ms after the stimulus", switch.to_tick_ms);
     check_latencies("cooperative coffee (wall clock)", &lat);
+}
+
+/// Two arms over DDS: the node reads `/tf_static`, `/left/object_stream`,
+/// `/right/object_stream`, `/left/robot_stream` and `/right/robot_stream` (a client plays both
+/// robot managers, each answering only its arm's commands on its own robot stream) and
+/// commands each arm by name until the pizza is done, never both arms on the pizza.
+#[test]
+fn two_arms_make_the_pizza_over_dds() {
+    use common::{BASES, object_stream, taught_pizza, tf_static};
+
+    let domain = private_domain(64);
+    let node = start(domain, taught_pizza(), "pizza", false, None);
+    let mut client =
+        RosNode::new("test_robot_managers", &NodeConfig { domain_id: Some(domain), ..Default::default() }).expect("client node");
+    let tf = client.advertise(&topics::TF_STATIC).expect("pub");
+    let mut objects = Vec::new();
+    let mut robots = Vec::new();
+    for b in &BASES {
+        let ns = format!("/{}", b.arm);
+        objects.push(client.advertise_in(&topics::OBJECT_STREAM, &ns).expect("pub"));
+        robots.push(client.advertise_in(&topics::ROBOT_STREAM, &ns).expect("pub"));
+    }
+    let actions = client.subscribe(&topics::SUPERVISOR_ACTION).expect("sub");
+    let deadline = Instant::now() + Duration::from_secs(15);
+    while !(tf.subscription_count(&client) > 0
+        && objects.iter().all(|p| p.subscription_count(&client) > 0)
+        && robots.iter().all(|p| p.subscription_count(&client) > 0)
+        && actions.publisher_count(&client) > 0)
+    {
+        assert!(Instant::now() < deadline, "the supervisor's per-arm readers were not discovered within 15 s");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    tf.publish(tf_static(&BASES)).expect("publish /tf_static");
+
+    let robot_state = |held: &Option<String>, done: Option<&str>| RobotStream {
+        gripper_state: if held.is_some() { RobotStream::GRIPPER_CLOSED } else { RobotStream::GRIPPER_OPEN },
+        held_object: held.clone().unwrap_or_default(),
+        events: done.map(|l| ActionEvent { label: l.into(), done: true, ..Default::default() }).into_iter().collect(),
+        ..Default::default()
+    };
+    // Per arm: held object, running (label, due).
+    let mut held: [Option<String>; 2] = [None, None];
+    let mut running: [Option<(String, Instant)>; 2] = [None, None];
+    let mut commands: Vec<ActionCommand> = Vec::new();
+    let mut last_periodic = Instant::now() - Duration::from_secs(1);
+    let end = Instant::now() + Duration::from_secs(20);
+    // Until the last action (the second pour's `open32(world)`) was commanded and done.
+    while !(commands.iter().any(|c| c.label.ends_with("open32(world)")) && running.iter().all(Option::is_none)) {
+        assert!(Instant::now() < end, "the pizza was not done within 20 s: {:?}", commands.iter().map(|c| (&c.arm, &c.label)).collect::<Vec<_>>());
+        if last_periodic.elapsed() >= Duration::from_millis(30) {
+            last_periodic = Instant::now();
+            for (i, b) in BASES.iter().enumerate() {
+                objects[i].publish(object_stream(b, &common::OBJECTS)).expect("publish objects");
+                robots[i].publish(robot_state(&held[i], None)).expect("publish robot state");
+            }
+        }
+        for i in 0..2 {
+            if let Some((label, due)) = running[i].clone()
+                && Instant::now() >= due
+            {
+                if label.contains("close") {
+                    held[i] = label.split(['(', ')']).nth(1).map(str::to_owned);
+                } else if label.contains("open") {
+                    held[i] = None;
+                }
+                running[i] = None;
+                robots[i].publish(robot_state(&held[i], Some(&label))).expect("publish done");
+            }
+        }
+        while let Some(c) = actions.take() {
+            let i = BASES.iter().position(|b| b.arm == c.arm).unwrap_or_else(|| panic!("a command for an undeclared arm: {c:?}"));
+            assert_eq!(c.label.chars().next(), c.arm.chars().next(), "{c:?}: taught on that arm");
+            if c.stop {
+                if running[i].as_ref().is_some_and(|(l, _)| *l == c.label) {
+                    running[i] = None;
+                }
+            } else {
+                running[i] = Some((c.label.clone(), Instant::now() + Duration::from_millis(25)));
+            }
+            commands.push(c);
+        }
+        let on_pizza = |r: &Option<(String, Instant)>| r.as_ref().is_some_and(|(l, _)| l.contains("(pizza)"));
+        assert!(!(on_pizza(&running[0]) && on_pizza(&running[1])), "both arms on the pizza");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    std::thread::sleep(Duration::from_millis(200));
+    let sup = node.finish();
+    assert!(sup.task_accomplished());
+    for arm in ["left", "right"] {
+        assert!(commands.iter().any(|c| c.arm == arm && !c.stop && c.label.contains("(pizza)")), "{arm} poured: {commands:?}");
+    }
+    assert_eq!(commands.first().map(|c| (c.arm.as_str(), c.label.as_str())), Some(("left", "lfoa1(tomato)")));
 }

@@ -49,7 +49,7 @@ pub use manager::{
     Stamp, VOCABULARY,
 };
 pub use refine::{HmmEntry, Revision};
-pub use primitive::{MotionPlan, Primitive, ReproductionError, StoredPose, reproduction_error};
+pub use primitive::{MotionPlan, Primitive, ReproductionError, Source, StoredPose, reproduction_error};
 pub use segment::{ActionKind, GripperCommand, Note, Segment, Segmenter};
 pub use turn::{PreviewPath, PreviewRun, Previewer, TurnConfig};
 pub use world::{ObjectReport, World, WorldReport};
