@@ -33,11 +33,11 @@ const RATE: &str = "0.5";
 const ARMS: [&str; 2] = ["left", "right"];
 /// The central area of config/attentional_supervisor.yaml: |y| below this, world frame (m).
 const CENTRAL_HALF_WIDTH_M: f64 = 0.2;
-const WALL_LIMIT_S: f64 = 100.0;
+const WALL_LIMIT_S: f64 = 240.0;
 
 const LTM: &str = "\
 arms([left, right]).
-objects([tomato, cheese, pizza, world]).
+objects([tomato, oil, cheese, basil, pizza, world]).
 schema(pizza, [
     (add(A,tomato), true),
     (add(A,cheese), true)
@@ -218,6 +218,11 @@ fn two_arms_share_the_central_area_one_at_a_time() {
             break;
         }
         std::thread::sleep(Duration::from_millis(2));
+    }
+    // The supervisor logs the accomplished task in the tick after the last event.
+    let waited = Instant::now();
+    while !graph.log("attentional_supervisor").contains("task accomplished: pizza") && waited.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(20));
     }
     let supervisor_log = graph.log("attentional_supervisor");
     drop(graph);

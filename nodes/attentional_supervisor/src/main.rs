@@ -35,7 +35,9 @@ fn main() -> std::process::ExitCode {
 }
 
 fn run(args: Args) -> Result<()> {
-    let (params, place): (Params, _) = args.node.load(&args.params, "attentional_supervisor")?;
+    let (mut params, place): (Params, _) = args.node.load(&args.params, "attentional_supervisor")?;
+    // `--use-sim-time` paces the decisions on /clock too, not only the node's clock.
+    params.use_sim_time |= args.node.use_sim_time;
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     if let Some(path) = &args.save_ltm {
         // A save killed half-way (kill -9) leaves its temporary file; the LTM itself is intact.
