@@ -72,11 +72,14 @@ impl Processes {
         self.graph.spawn(name, &program, args).unwrap_or_else(|e| panic!("{e}"));
     }
 
-    /// Starts `binary` (of the bin dir) with `args` as process `name` (its log `<name>.log`):
-    /// the same node twice, e.g. one per arm.
-    pub fn spawn_as(&mut self, name: &str, binary: &str, args: &[&str]) {
+    /// Starts `binary` (of the bin dir) with `args` in the ROS namespace `/<arm>`
+    /// (`--ros-args -r __ns:=/<arm>`), as process `<binary>_<arm>` (its log
+    /// `<binary>_<arm>.log`): the same node once per arm.
+    pub fn spawn_in(&mut self, binary: &str, arm: &str, args: &[&str]) {
         let program = self.bin_dir.join(binary);
-        self.graph.spawn(name, &program, args).unwrap_or_else(|e| panic!("{e}"));
+        let ns = format!("__ns:=/{arm}");
+        let args: Vec<&str> = args.iter().copied().chain(["--ros-args", "-r", &ns, "--"]).collect();
+        self.graph.spawn(&format!("{binary}_{arm}"), &program, &args).unwrap_or_else(|e| panic!("{e}"));
     }
 
     /// The log of `name` so far (empty when it has none).

@@ -83,14 +83,8 @@ fn two_arms_each_follow_their_own_commands_and_never_touch() {
         motions.push(node.publisher::<MotionCommand>(&format!("/{arm}/motion/command"), &qos::reliable_depth(10)).expect("pub"));
     }
     for arm in ARMS {
-        let ns = format!("__ns:=/{arm}");
-        let ros = ["--ros-args", "-r", ns.as_str(), "--"];
-        let mut a = vec!["--params", p(&ds), "--use-sim-time", "--duration", &wall];
-        a.extend(ros);
-        graph.spawn_as(&format!("ds_controller_{arm}"), "ds_controller", &a);
-        let mut a = vec!["--params", p(&fded), "--use-sim-time", "--backend", "cpu", "--duration", &wall];
-        a.extend(ros);
-        graph.spawn_as(&format!("fded_distance_{arm}"), "fded_distance", &a);
+        graph.spawn_in("ds_controller", arm, &["--params", p(&ds), "--use-sim-time", "--duration", &wall]);
+        graph.spawn_in("fded_distance", arm, &["--params", p(&fded), "--use-sim-time", "--backend", "cpu", "--duration", &wall]);
     }
     graph.spawn("human_observer", &["--params", "config/human_observer.yaml", "--use-sim-time", "--duration", &wall, "--ros-args", "-r", "__ns:=/left"]);
     graph.spawn("lwr_sim", &["--scene", p(&scene_path), "--rate", RATE, "--duration", "120"]);

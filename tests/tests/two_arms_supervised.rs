@@ -138,17 +138,9 @@ fn two_arms_share_the_central_area_one_at_a_time() {
         streams.push(node.subscription::<RobotStream>(&format!("/{arm}/robot_stream"), &qos::reliable_depth(2000)).expect("sub"));
     }
     for arm in ARMS {
-        let ns = format!("__ns:=/{arm}");
-        let ros = ["--ros-args", "-r", ns.as_str(), "--"];
-        let mut a = vec!["--params", p(&ds), "--use-sim-time", "--duration", &wall];
-        a.extend(ros);
-        graph.spawn_as(&format!("ds_controller_{arm}"), "ds_controller", &a);
-        let mut a = vec!["--use-sim-time", "--backend", "cpu", "--duration", &wall];
-        a.extend(ros);
-        graph.spawn_as(&format!("fded_distance_{arm}"), "fded_distance", &a);
-        let mut a = vec!["--use-sim-time", "--database-dir", p(&db_dir), "--duration", &wall];
-        a.extend(ros);
-        graph.spawn_as(&format!("robot_manager_{arm}"), "robot_manager", &a);
+        graph.spawn_in("ds_controller", arm, &["--params", p(&ds), "--use-sim-time", "--duration", &wall]);
+        graph.spawn_in("fded_distance", arm, &["--use-sim-time", "--backend", "cpu", "--duration", &wall]);
+        graph.spawn_in("robot_manager", arm, &["--use-sim-time", "--database-dir", p(&db_dir), "--duration", &wall]);
     }
     graph.spawn("human_observer", &["--use-sim-time", "--duration", &wall, "--ros-args", "-r", "__ns:=/left"]);
     graph.spawn("lwr_sim", &["--scene", p(&scene_path), "--rate", RATE, "--duration", "200"]);

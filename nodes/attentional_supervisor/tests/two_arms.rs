@@ -315,7 +315,7 @@ fn commands_name_their_arm_and_the_central_area_is_one_arm_at_a_time() {
     let a = 1 - b;
     let pizza_cmd = |e: &&(f64, usize, String, bool)| e.3 && e.2.contains("(pizza)");
     let tb = log.iter().filter(pizza_cmd).find(|e| e.1 == b).map(|e| e.0).expect("the waiting arm pours");
-    let ta = log.iter().filter(pizza_cmd).filter(|e| e.1 == a && e.0 < tb).map(|e| e.0).last().expect("the other arm held the pizza first");
+    let ta = log.iter().filter(pizza_cmd).filter(|e| e.1 == a && e.0 < tb).map(|e| e.0).next_back().expect("the other arm held the pizza first");
     let released = log
         .iter()
         .find(|(t, arm, l, cmd)| *arm == a && !cmd && *t > ta && l.contains("(world)"))
