@@ -6,6 +6,13 @@
 //! the hand, and turns external wrenches into admittance motion for kinesthetic teaching
 //! (thesis eq. 4.6, `ẋ = c f`, with `c = 0.005 m/(N s)`).
 //!
+//! A scene names its one arm `robot:` (everything in that arm's base frame), or several arms
+//! `arms:` (each a name, a base pose in the `world` frame and start joints; one model for all):
+//! each arm then has its own command, wrench and gripper (`*_arm*` methods, by arm index; the
+//! plain methods are the first arm's), a gripper never takes what another holds, and
+//! [`Simulator::arm_clearance`] / [`ArmHulls`] give the closest pair of links of two arms.
+//! Scenes whose arm bases overlap or whose arms intersect at their start joints are refused.
+//!
 //! It is deterministic: the same model, scene and input sequence give bit-identical states.
 //! Time is kept in integer nanoseconds so that long runs do not drift.
 //!
