@@ -3,7 +3,7 @@
 #
 #   launch_scripts/graph.sh [--rate R | --max] [--duration S] [--logs DIR] [--scene FILE]
 #                           [--execute TASK [--learned DIR]] [--teach TASK] [--state DIR]
-#                           [--bridge [--bridge-port PORT]]
+#                           [--bridge [--bridge-port PORT]] [--arms "left right"]
 #
 # --execute TASK: the robot carries out TASK (pourDrink, prepareCoffee, ...) with what was learned
 #   in DIR (default config/learned, written by launch_scripts/teach.sh): the LTM
@@ -15,6 +15,10 @@
 #   (--state DIR, default out; a fresh DIR starts from the bundled schema).
 # --bridge: also `cowork bridge` (Foxglove WebSocket, ws://localhost:8765 or --bridge-port):
 #   open it in the Foxglove app with the layout config/foxglove-layout.json.
+# --arms "A B": the scene has named arms (config/scenes/pizza.yaml: --arms "left right"); each arm
+#   gets its own fded_distance, ds_controller and robot_manager in its ROS namespace (/A/...,
+#   their `/A/<node>` parameter blocks), one human_observer in the first arm's namespace, and the
+#   supervisor teaches or executes TASK (default pizza) of config/tasks/pizza.schema.
 # Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every node cleanly.
 # Nodes run from target/release; build first with `cargo build --release --bins`.
 set -euo pipefail
@@ -30,6 +34,7 @@ learned_dir=config/learned
 state_dir=out
 bridge=
 bridge_port=8765
+arms=()
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --rate) rate_args=(--rate "$2"); shift 2 ;;
@@ -43,10 +48,19 @@ while [[ $# -gt 0 ]]; do
     --state) state_dir="$2"; shift 2 ;;
     --bridge) bridge=1; shift ;;
     --bridge-port) bridge=1; bridge_port="$2"; shift 2 ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    --arms) read -r -a arms <<<"$2"; shift 2 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
+
+if grep -q '^arms:' "$scene" && [[ ${#arms[@]} -eq 0 ]]; then
+  echo "graph.sh: $scene has named arms: give them with --arms (e.g. --arms \"left right\")" >&2; exit 2
+fi
+if [[ ${#arms[@]} -gt 0 ]]; then
+  [[ $task == pourDrink ]] && task=pizza
+  [[ -n $execute ]] && { echo "graph.sh: --execute with --arms: nothing learned for two arms is bundled yet" >&2; exit 2; }
+fi
 
 bin=target/release
 for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controller robot_manager ${bridge:+cowork}; do
@@ -67,6 +81,10 @@ else
   save_ltm=$state_dir/kitchen.learned.schema
   mkdir -p "$state_dir"
   ltm=config/tasks/kitchen.schema
+  if [[ ${#arms[@]} -gt 0 ]]; then
+    ltm=config/tasks/pizza.schema
+    save_ltm=$state_dir/pizza.learned.schema
+  fi
   [[ -f $save_ltm ]] && ltm=$save_ltm
 fi
 
@@ -96,15 +114,26 @@ stop_all() {
 trap stop_all INT TERM EXIT
 
 start lwr_sim $bin/lwr_sim --scene "$scene" "${rate_args[@]}" "${duration_args[@]}"
-# fDED distances (wgpu when a Vulkan adapter exists, else CPU; COWORK_FDED_BACKEND=cpu|gpu forces).
-start fded_distance $bin/fded_distance --params config/fded_distance.yaml --use-sim-time
-# The person near the robot: /human/state (far / interaction, alpha_h, stop), /human/gesture.
-start human_observer $bin/human_observer --params config/human_observer.yaml --use-sim-time
-# Reactive DS controller: /motion/command -> /lwr/joint_velocity_command (holds without fresh inputs).
-start ds_controller $bin/ds_controller --params config/ds_controller.yaml --use-sim-time
-# Robot manager: teaching (segments, primitive database), execution of the supervisor actions
-# through ds_controller and the gripper, /robot_stream and /object_stream.
-start robot_manager $bin/robot_manager --params config/robot_manager.yaml --use-sim-time --database-dir "$database"
+if [[ ${#arms[@]} -gt 0 ]]; then
+  for arm in "${arms[@]}"; do
+    ns=(--ros-args -r "__ns:=/$arm" --)
+    start "fded_distance_$arm" $bin/fded_distance --params config/fded_distance.yaml --use-sim-time "${ns[@]}"
+    start "ds_controller_$arm" $bin/ds_controller --params config/ds_controller.yaml --use-sim-time "${ns[@]}"
+    start "robot_manager_$arm" $bin/robot_manager --params config/robot_manager.yaml --use-sim-time --database-dir "$database" "${ns[@]}"
+  done
+  # One observer: its /human/state distance is to the first arm.
+  start human_observer $bin/human_observer --params config/human_observer.yaml --use-sim-time --ros-args -r "__ns:=/${arms[0]}" --
+else
+  # fDED distances (wgpu when a Vulkan adapter exists, else CPU; COWORK_FDED_BACKEND=cpu|gpu forces).
+  start fded_distance $bin/fded_distance --params config/fded_distance.yaml --use-sim-time
+  # The person near the robot: /human/state (far / interaction, alpha_h, stop), /human/gesture.
+  start human_observer $bin/human_observer --params config/human_observer.yaml --use-sim-time
+  # Reactive DS controller: /motion/command -> /lwr/joint_velocity_command (holds without fresh inputs).
+  start ds_controller $bin/ds_controller --params config/ds_controller.yaml --use-sim-time
+  # Robot manager: teaching (segments, primitive database), execution of the supervisor actions
+  # through ds_controller and the gripper, /robot_stream and /object_stream.
+  start robot_manager $bin/robot_manager --params config/robot_manager.yaml --use-sim-time --database-dir "$database"
+fi
 echo "supervisor: task $task from $ltm${execute:+ (executing)}"
 start attentional_supervisor $bin/attentional_supervisor --ltm "$ltm" --task "$task" --use-sim-time --save-ltm "$save_ltm"
 if [[ -n $bridge ]]; then
