@@ -49,7 +49,7 @@ while [[ $# -gt 0 ]]; do
     --bridge) bridge=1; shift ;;
     --bridge-port) bridge=1; bridge_port="$2"; shift 2 ;;
     --arms) read -r -a arms <<<"$2"; shift 2 ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
     *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
