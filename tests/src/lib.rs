@@ -132,3 +132,13 @@ pub fn config_set(file: &str, values: &[(&str, &str)], out: &Path) -> PathBuf {
     out.to_owned()
 }
 
+/// A copy of the scene `config/scenes/<file>` at `out` whose depth camera renders 320 × 240
+/// instead of 640 × 480: the same pin-hole camera with half the pixels per axis, so fDED keeps
+/// a loaded 2-core machine's watchdogs fed in the graph tests.
+pub fn half_resolution_scene(file: &str, out: &Path) -> PathBuf {
+    config_set(
+        &format!("scenes/{file}"),
+        &[("width", "320"), ("height", "240"), ("fx", "262.5"), ("fy", "262.5"), ("cx", "159.5"), ("cy", "119.5")],
+        out,
+    )
+}

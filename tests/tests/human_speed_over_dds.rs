@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use cowork_bag::BagReader;
-use cowork_graph_tests::{Processes, config_set, node_bin_dir, private_domain, repo_root};
+use cowork_graph_tests::{half_resolution_scene, Processes, config_set, node_bin_dir, private_domain, repo_root};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion};
 use cowork_msgs::msg::{Gesture, HumanState, MotionCommand, MotionStatus, Skeleton, WorldState};
@@ -124,11 +124,7 @@ fn segment(frames: &[Skeleton], from: f64, to: f64, at: f64, out: &mut Vec<Due>)
 /// The test's copies of the scene and of ds_controller's parameters (see the module docs):
 /// (scene, ds_controller parameters).
 fn write_configs(dir: &Path) -> (PathBuf, PathBuf) {
-    let scene = config_set(
-        "scenes/stacking-hri.yaml",
-        &[("width", "320"), ("height", "240"), ("fx", "262.5"), ("fy", "262.5"), ("cx", "159.5"), ("cy", "119.5")],
-        &dir.join("scene.yaml"),
-    );
+    let scene = half_resolution_scene("stacking-hri.yaml", &dir.join("scene.yaml"));
     let text = std::fs::read_to_string(repo_root().join("config/ds_controller.yaml")).expect("config/ds_controller.yaml");
     // Modulation's `end_effector` and `links` come first in the file.
     let mut values = vec![("stale_after_s", "0.5"), ("future_tolerance_s", "0.05"), ("end_effector", "false"), ("links", "false")];

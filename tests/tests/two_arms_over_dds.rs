@@ -17,7 +17,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use cowork_graph_tests::{Processes, config_set, node_bin_dir, private_domain, repo_root};
+use cowork_graph_tests::{half_resolution_scene, Processes, config_set, node_bin_dir, private_domain, repo_root};
 use cowork_msgs::geometry_msgs::{Point, Pose, Quaternion};
 use cowork_msgs::msg::{LinkDistances, MotionCommand, MotionStatus, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
@@ -50,11 +50,7 @@ fn two_arms_each_follow_their_own_commands_and_never_touch() {
     let nodes = ["lwr_sim", "fded_distance", "ds_controller", "human_observer"];
     let bins = std::env::var_os("COWORK_GRAPH_BIN_DIR").map_or_else(|| node_bin_dir(&nodes), |d| repo_root().join(d));
     let dir = tempfile::tempdir().expect("tempdir");
-    let scene_path = config_set(
-        "scenes/pizza.yaml",
-        &[("width", "320"), ("height", "240"), ("fx", "262.5"), ("fy", "262.5"), ("cx", "159.5"), ("cy", "119.5")],
-        &dir.path().join("pizza.yaml"),
-    );
+    let scene_path = half_resolution_scene("pizza.yaml", &dir.path().join("pizza.yaml"));
     let scene = Scene::from_file(&scene_path).expect("scene");
     // The bundled files with their per-arm blocks (`/left/ds_controller`: the pizza scene, the
     // arm's posture); only the watchdog bounds are widened for a loaded machine.

@@ -19,7 +19,7 @@
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use cowork_graph_tests::{Processes, config_set, node_bin_dir, private_domain, repo_root};
+use cowork_graph_tests::{half_resolution_scene, Processes, config_set, node_bin_dir, private_domain, repo_root};
 use cowork_manager::{ActionKind, Database, Primitive, StoredPose};
 use cowork_msgs::msg::{ActionCommand, RobotStream};
 use cowork_msgs::sensor_msgs::JointState;
@@ -92,11 +92,7 @@ fn two_arms_share_the_central_area_one_at_a_time() {
     let nodes = ["lwr_sim", "fded_distance", "ds_controller", "human_observer", "robot_manager", "attentional_supervisor"];
     let bins = std::env::var_os("COWORK_GRAPH_BIN_DIR").map_or_else(|| node_bin_dir(&nodes), |d| repo_root().join(d));
     let dir = tempfile::tempdir().expect("tempdir");
-    let scene_path = config_set(
-        "scenes/pizza.yaml",
-        &[("width", "320"), ("height", "240"), ("fx", "262.5"), ("fy", "262.5"), ("cx", "159.5"), ("cy", "119.5")],
-        &dir.path().join("pizza.yaml"),
-    );
+    let scene_path = half_resolution_scene("pizza.yaml", &dir.path().join("pizza.yaml"));
     let scene = Scene::from_file(&scene_path).expect("scene");
     let model = RobotModel::from_urdf_file(repo_root().join("config/robot/lwr4plus.urdf")).expect("URDF");
     let sim = Simulator::new(model.clone(), scene.clone(), SimParams::default()).expect("simulator");

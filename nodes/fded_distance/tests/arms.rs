@@ -5,36 +5,20 @@
 //! table plane was z = 0 of the base frame: every point with world y below the shoulder was
 //! "table", the right arm included, and the camera pose was only read from a direct edge.
 
-use std::path::PathBuf;
-
-use cowork_msgs::sensor_msgs::{CameraInfo, Image};
-use cowork_robot::{LinkPoses, RobotModel};
-use cowork_sim::{ArmHulls, Scene, Simulator};
+use cowork_robot::LinkPoses;
+use cowork_sim::{ArmHulls, Scene};
 use fded_distance::{FdedNode, Params};
-use lwr_sim::depth::{DepthCamera, DepthConfig, DepthSnapshot, People};
-use lwr_sim::{LwrSim, LwrSimConfig};
 use nalgebra::Point3;
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
+
+use common::{model, rendered, root};
 
 #[test]
 fn the_left_arms_fded_sees_the_right_arm_and_not_the_table() {
-    let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF");
-    let mut config: LwrSimConfig = cowork_ros::params::load(&root().join("config/lwr_sim.yaml"), "lwr_sim").expect("params");
-    config.depth = DepthConfig { noise: false, ..config.depth };
+    let model = model();
     let scene = Scene::from_file(&root().join("config/scenes/pizza.yaml")).expect("scene");
-    let sim = Simulator::new(model.clone(), scene, config.simulation.clone()).expect("sim");
-    let mut camera = DepthCamera::new(&sim, &config.depth).expect("camera");
-    let mut lwr = LwrSim::new(sim, config);
-    for _ in 0..50 {
-        lwr.step();
-    }
-    let mut snap = DepthSnapshot::default();
-    snap.capture(lwr.simulator(), &People::new(-0.8, 0.5));
-    let (mut image, mut info) = (Image::default(), CameraInfo::default());
-    camera.render(&snap, &mut image, &mut info).expect("render");
+    let (mut lwr, image, info) = rendered(scene);
 
     // The left arm's node, with the bundled /left/fded_distance block.
     let text = std::fs::read_to_string(root().join("config/fded_distance.yaml")).expect("params");

@@ -4,20 +4,17 @@
 //! naming it removes exactly its pixels, so the cup becomes the closest; a stale list, a name
 //! with no shape, a bad list or a list in another frame remove nothing (fail closed).
 
-use std::path::PathBuf;
-
 use cowork_msgs::msg::{LinkDistances, ObjectState, ObjectStream, WorldState};
 use cowork_msgs::sensor_msgs::{CameraInfo, Image};
 use cowork_robot::RobotModel;
 use cowork_sim::{Scene, Simulator};
 use fded_distance::{FdedNode, Params};
-use lwr_sim::depth::{DepthCamera, DepthConfig, DepthSnapshot, People};
-use lwr_sim::{LwrSim, LwrSimConfig};
+use lwr_sim::LwrSim;
 use nalgebra::{Point3, Vector3};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
+
+use common::{model, rendered, root};
 
 fn params() -> Params {
     let mut p: Params =
@@ -39,11 +36,8 @@ struct Setup {
 /// The kitchen with the bottle (r 0.035, h 0.22) 3 cm under the tool point and the cup
 /// (r 0.04, h 0.10) 0.2 m beside it; one noise-free frame at 0.05 s.
 fn setup() -> Setup {
-    let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF");
-    let mut config: LwrSimConfig = cowork_ros::params::load(&root().join("config/lwr_sim.yaml"), "lwr_sim").expect("params");
-    config.depth = DepthConfig { noise: false, ..config.depth };
     let mut scene = Scene::from_file(&root().join("config/scenes/kitchen.yaml")).expect("scene");
-    let tool = Simulator::new(model.clone(), scene.clone(), config.simulation.clone()).expect("sim").tool_pose().translation.vector;
+    let tool = Simulator::new(model(), scene.clone(), cowork_sim::SimParams::default()).expect("sim").tool_pose().translation.vector;
     let bottle = Point3::new(tool.x, tool.y, tool.z - 0.03 - 0.11);
     let cup = Point3::new(tool.x, tool.y + 0.2, tool.z - 0.05);
     for o in &mut scene.objects {
@@ -53,22 +47,12 @@ fn setup() -> Setup {
             _ => {}
         }
     }
-    let sim = Simulator::new(model, scene, config.simulation.clone()).expect("sim");
-    let mut camera = DepthCamera::new(&sim, &config.depth).expect("camera");
-    let mut lwr = LwrSim::new(sim, config);
-    for _ in 0..50 {
-        lwr.step();
-    }
-    let mut snap = DepthSnapshot::default();
-    snap.capture(lwr.simulator(), &People::new(-0.8, 0.5));
-    let (mut image, mut info) = (Image::default(), CameraInfo::default());
-    camera.render(&snap, &mut image, &mut info).expect("render");
+    let (lwr, image, info) = rendered(scene);
     Setup { lwr, image, info, bottle, cup }
 }
 
 fn node(s: &mut Setup) -> FdedNode {
-    let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF");
-    let mut node = FdedNode::new(model, params()).expect("node");
+    let mut node = FdedNode::new(model(), params()).expect("node");
     node.on_camera_info(&s.info).expect("camera info");
     node.on_joint_state(&s.lwr.joint_states(0)).expect("joint state");
     node.on_tf_static(&s.lwr.tf_static()).expect("tf_static");

@@ -32,9 +32,9 @@ pub const LEFT: Base = Base { arm: "left", position: [-0.15, 0.12, 0.55], rpy: [
 pub const RIGHT: Base = Base { arm: "right", position: [-0.15, -0.12, 0.55], rpy: [FRAC_PI_2, 0.0, 0.0] };
 pub const BASES: [Base; 2] = [LEFT, RIGHT];
 
-/// The objects of config/scenes/pizza.yaml (`objects:`, world positions, m), hard-coded as the
-/// bases: the pizza in the middle of the table, tomato and oil at y = +0.38 (left), cheese and
-/// basil at y = -0.38 (right).
+/// The objects of config/scenes/pizza.yaml (`objects:`, world positions, m), written out as the
+/// bases (two_arms.rs checks them against the file): the pizza in the middle of the table,
+/// tomato and oil at y = +0.38 (left), cheese and basil at y = -0.38 (right).
 pub const OBJECTS: [(&str, [f64; 3]); 5] = [
     ("pizza", [0.45, 0.0, 0.01]),
     ("tomato", [0.42, 0.38, 0.08]),
