@@ -102,6 +102,8 @@ pub struct LwrSim {
     root_frame: String,
     /// `/joint_states` of each arm, reused.
     joint_states: Vec<JointState>,
+    /// Each arm's input topic names, for warnings.
+    arm_topics: Vec<ArmTopics>,
     camera_clock: FrameClock,
     config_depth: DepthConfig,
     people: People,
@@ -116,6 +118,14 @@ pub struct LwrSim {
     /// Refusals of wrenches applied at their stamps during [`step`](Self::step), until
     /// [`on_step`](Self::on_step) puts them out.
     step_warnings: Vec<Warning>,
+}
+
+/// An arm's input topics, named in its namespace (`/left/lwr/joint_velocity_command`).
+#[derive(Debug)]
+struct ArmTopics {
+    command: String,
+    gripper: String,
+    wrench: String,
 }
 
 /// Refusals kept between two [`LwrSim::on_step`]s at most (the rest are dropped).
@@ -163,6 +173,17 @@ impl LwrSim {
             wrench_mode: config.external_wrench.mode,
             every_wrench: every(config.external_wrench.report_rate_hz),
             wrench_timeout_ns: (sim.params().wrench_timeout_s * 1e9) as i64,
+            arm_topics: arms
+                .iter()
+                .map(|a| {
+                    let ns = format!("/{}", a.name());
+                    ArmTopics {
+                        command: topics::JOINT_VELOCITY_COMMAND.name_in(&ns).into_owned(),
+                        gripper: topics::GRIPPER_COMMAND.name_in(&ns).into_owned(),
+                        wrench: topics::EXTERNAL_WRENCH.name_in(&ns).into_owned(),
+                    }
+                })
+                .collect(),
             reported: vec![None; arms.len()],
             step_warnings: Vec::new(),
             sim,
@@ -240,11 +261,6 @@ impl LwrSim {
         }
     }
 
-    /// The name of `topic` in arm `arm`'s namespace, for warnings.
-    fn arm_topic<T>(&self, topic: &topics::Topic<T>, arm: usize) -> std::borrow::Cow<'static, str> {
-        topic.name_in(&self.namespace(arm))
-    }
-
     /// The ROS namespace of arm `arm`'s topics: `/` for the one arm of a single-arm scene,
     /// `/<name>` for a named arm.
     pub fn namespace(&self, arm: usize) -> String {
@@ -254,7 +270,7 @@ impl LwrSim {
     /// Applies a joint velocity command to arm `arm`; a bad one is refused (the warning says
     /// why), and that arm is held.
     pub fn on_velocity_command(&mut self, arm: usize, msg: &Float64MultiArray) -> Option<Warning> {
-        let topic = self.arm_topic(&topics::JOINT_VELOCITY_COMMAND, arm);
+        let topic = &self.arm_topics[arm].command;
         self.sim
             .set_arm_velocity_command(arm, &msg.data)
             .err()
@@ -280,7 +296,7 @@ impl LwrSim {
                 Output::Gripper { arm, closed: false, object: None }
             }
             _ => {
-                let topic = self.arm_topic(&topics::GRIPPER_COMMAND, arm);
+                let topic = &self.arm_topics[arm].gripper;
                 Output::Warning(Warning::new(
                     format!("{topic}:data"),
                     format!("{topic}: unknown command {:?} (expected open or close)", cowork_ros::quote(msg.data.trim())),
@@ -309,7 +325,7 @@ impl LwrSim {
     }
 
     fn apply_wrench(&mut self, arm: usize, msg: &WrenchStamped) -> Option<Warning> {
-        let topic = self.arm_topic(&topics::EXTERNAL_WRENCH, arm);
+        let topic = &self.arm_topics[arm].wrench;
         let frames = self.sim.arm(arm).frames();
         // A link's frame, as tf names it (`left/lwr_link_3`) or by its model name.
         let frame = msg.header.frame_id.as_str();
@@ -346,9 +362,9 @@ impl LwrSim {
             self.reported[arm] = Some((Wrench { force, torque }, index, self.sim.time_ns()));
             return None;
         }
-        let link = link.map(|i| self.sim.model().link_names()[i].clone());
+        let link = link.unwrap_or(self.sim.model().tip_link());
         self.sim
-            .set_arm_wrench(arm, Wrench { force, torque }, link.as_deref())
+            .set_arm_wrench_on_link(arm, Wrench { force, torque }, link)
             .err()
             .map(|e| Warning::new(format!("{topic}:wrench"), format!("{topic} rejected: {e}")))
     }

@@ -346,11 +346,7 @@ impl Simulator {
     /// Applies an external wrench (the arm's base frame) at the origin of `link` of arm `arm`
     /// (the tool link when `None`; the link's model name, unprefixed).
     pub fn set_arm_wrench(&mut self, arm: usize, wrench: Wrench, link: Option<&str>) -> Result<(), CommandError> {
-        let values = wrench.force.iter().chain(wrench.torque.iter()).copied();
-        if let Some((index, value)) = values.enumerate().find(|(_, v)| !v.is_finite()) {
-            self.arms[arm].wrench = None;
-            return Err(CommandError::NotFinite { what: "wrench", index, value });
-        }
+        self.check_wrench(arm, &wrench)?;
         let link = match link {
             None | Some("") => self.model.tip_link(),
             Some(name) => self
@@ -359,6 +355,27 @@ impl Simulator {
                 .ok_or_else(|| CommandError::UnknownLink { link: name.to_owned() })?,
         };
         self.arms[arm].wrench = Some((wrench, link, self.time_ns));
+        Ok(())
+    }
+
+    /// [`set_arm_wrench`](Self::set_arm_wrench) at the origin of link index `link` (model
+    /// order): no name lookup, nothing allocated.
+    pub fn set_arm_wrench_on_link(&mut self, arm: usize, wrench: Wrench, link: usize) -> Result<(), CommandError> {
+        self.check_wrench(arm, &wrench)?;
+        if link >= self.model.link_count() {
+            return Err(CommandError::UnknownLink { link: format!("#{link}") });
+        }
+        self.arms[arm].wrench = Some((wrench, link, self.time_ns));
+        Ok(())
+    }
+
+    /// A non-finite wrench is refused and ends the one acting on arm `arm`.
+    fn check_wrench(&mut self, arm: usize, wrench: &Wrench) -> Result<(), CommandError> {
+        let values = wrench.force.iter().chain(wrench.torque.iter()).copied();
+        if let Some((index, value)) = values.enumerate().find(|(_, v)| !v.is_finite()) {
+            self.arms[arm].wrench = None;
+            return Err(CommandError::NotFinite { what: "wrench", index, value });
+        }
         Ok(())
     }
 
