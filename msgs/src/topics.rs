@@ -166,6 +166,11 @@ pub const JOINT_STATES: Topic<JointState> =
     Topic::with_reader("/joint_states", Delivery::DEFAULT, Delivery::BestEffort { depth: 100 }).per_robot();
 /// Joint velocity command (rad/s) from `ds_controller` to `lwr_sim`.
 pub const JOINT_VELOCITY_COMMAND: Topic<Float64MultiArray> = Topic::new("/lwr/joint_velocity_command", Delivery::DEFAULT).per_robot();
+/// Imitation teaching (thesis Sec. 4.2): joint position targets (rad, `position`, the arm's
+/// joint names) of the demonstrator's arm retargeted onto the robot arm by `human_observer`
+/// (eq. 4.7), stamped with the skeleton frame's stamp; `lwr_sim` makes the arm follow them (the
+/// visual feedback the thesis gives in V-Rep) and a real arm's driver may ignore them.
+pub const FOLLOW_JOINTS: Topic<JointState> = Topic::new("/lwr/follow_joints", Delivery::Reliable { depth: 1000 }).per_robot();
 /// Task transition control while a push is blended in (thesis Sec. 4.1.2, Fig. 4.7), from
 /// `ds_controller` at most every 10 ms of node time: `[w1, w2, w3, f]`, the barycentric weights
 /// of T¹ = T_ee, T² = [T_ee, T_ic], T³ = [T_ic, T_ee] and the push's norm (N); one `[1, 0, 0, 0]`
@@ -245,6 +250,7 @@ fn entries() -> Vec<(&'static str, String, Delivery, Scope)> {
         e(&CLOCK),
         e(&JOINT_STATES),
         e(&JOINT_VELOCITY_COMMAND),
+        e(&FOLLOW_JOINTS),
         e(&TTC_WEIGHTS),
         e(&GRIPPER_COMMAND),
         e(&EXTERNAL_WRENCH),
@@ -333,7 +339,7 @@ mod tests {
     #[test]
     fn the_scopes_are_as_documented() {
         let robot = [
-            "/joint_states", "/lwr/joint_velocity_command", "/ds_controller/ttc", "/lwr/gripper_command",
+            "/joint_states", "/lwr/joint_velocity_command", "/lwr/follow_joints", "/ds_controller/ttc", "/lwr/gripper_command",
             "/external_wrench", "/lwr/external_wrench", "/robot_description", "/lwr/world", "/fded/distances",
             "/fded/markers", "/motion/command", "/motion/status", "/robot_stream", "/object_stream",
             "/manipulated_objects",

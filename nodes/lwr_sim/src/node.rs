@@ -28,6 +28,8 @@ pub enum Input {
     GripperCommand(usize, RosString),
     /// `/external_wrench`: a push on the arm.
     Wrench(usize, WrenchStamped),
+    /// `/lwr/follow_joints`: joint targets the arm follows (imitation teaching).
+    FollowJoints(usize, JointState),
     /// `/human/skeleton`: a person for the depth camera.
     Skeleton(Skeleton),
     /// `/lwr/place_object`: a person moved a scene object.
@@ -124,6 +126,7 @@ pub struct LwrSim {
 #[derive(Debug)]
 struct ArmTopics {
     command: String,
+    follow: String,
     gripper: String,
     wrench: String,
 }
@@ -131,15 +134,32 @@ struct ArmTopics {
 /// Refusals kept between two [`LwrSim::on_step`]s at most (the rest are dropped).
 pub const MAX_STEP_WARNINGS: usize = 64;
 
-/// Wrenches waiting for their stamp, and the newest stamp received (ns).
+/// A teacher's input that acts at its header stamp.
+#[derive(Debug)]
+enum Timed {
+    Wrench(WrenchStamped),
+    Joints(JointState),
+}
+
+impl Timed {
+    fn stamp_ns(&self) -> i64 {
+        match self {
+            Timed::Wrench(m) => m.header.stamp.to_nanos(),
+            Timed::Joints(m) => m.header.stamp.to_nanos(),
+        }
+    }
+}
+
+/// Teacher inputs (wrenches, followed joint targets) waiting for their stamp, and the newest
+/// stamp received (ns).
 #[derive(Debug, Default)]
 struct FollowWrench {
-    /// (arm, wrench), stamps as received.
-    pending: std::collections::VecDeque<(usize, WrenchStamped)>,
+    /// (arm, input), stamps as received.
+    pending: std::collections::VecDeque<(usize, Timed)>,
     newest_ns: Option<i64>,
 }
 
-/// Wrenches waiting for their stamp at most (100 s of a 100 Hz teacher).
+/// Teacher inputs waiting for their stamp at most (100 s of a 100 Hz teacher).
 pub const MAX_PENDING_WRENCHES: usize = 10_000;
 
 impl LwrSim {
@@ -178,6 +198,7 @@ impl LwrSim {
                 .map(|a| {
                     let ns = format!("/{}", a.name());
                     ArmTopics {
+                        follow: topics::FOLLOW_JOINTS.name_in(&ns).into_owned(),
                         command: topics::JOINT_VELOCITY_COMMAND.name_in(&ns).into_owned(),
                         gripper: topics::GRIPPER_COMMAND.name_in(&ns).into_owned(),
                         wrench: topics::EXTERNAL_WRENCH.name_in(&ns).into_owned(),
@@ -225,11 +246,11 @@ impl LwrSim {
         })
     }
 
-    /// Replaying a recorded teacher: from now on every `/external_wrench` is applied when
-    /// simulated time reaches its header stamp (at once when that is past), and once one has
-    /// arrived [`run`](crate::run) never lets simulated time pass the newest stamp received — the
-    /// simulator waits for a teacher that falls behind, so a demonstration replays the same
-    /// however loaded the machine is. Off by default (wrenches act on arrival).
+    /// Replaying a recorded teacher: from now on every `/external_wrench` and `/lwr/follow_joints`
+    /// is applied when simulated time reaches its header stamp (at once when that is past), and
+    /// once one has arrived [`run`](crate::run) never lets simulated time pass the newest stamp
+    /// received — the simulator waits for a teacher that falls behind, so a demonstration
+    /// replays the same however loaded the machine is. Off by default (they act on arrival).
     pub fn follow_wrench_stamps(&mut self) {
         self.follow.get_or_insert_with(FollowWrench::default);
     }
@@ -256,6 +277,7 @@ impl LwrSim {
             Input::VelocityCommand(arm, m) => self.on_velocity_command(*arm, m).map(Output::Warning),
             Input::GripperCommand(arm, m) => Some(self.gripper_command(*arm, m)),
             Input::Wrench(arm, m) => self.on_wrench(*arm, m).map(Output::Warning),
+            Input::FollowJoints(arm, m) => self.on_follow_joints(*arm, m).map(Output::Warning),
             Input::Skeleton(m) => self.on_skeleton(m).map(Output::Warning),
             Input::PlaceObject(m) => self.on_place_object(m).err().map(Output::Warning),
         }
@@ -309,19 +331,57 @@ impl LwrSim {
     /// stamps, one stamped in the future waits for its time (the oldest dropped beyond
     /// [`MAX_PENDING_WRENCHES`]). A refused one is a warning.
     pub fn on_wrench(&mut self, arm: usize, msg: &WrenchStamped) -> Option<Warning> {
-        let now = self.sim.time_ns();
-        if let Some(f) = self.follow.as_mut() {
-            let stamp = msg.header.stamp.to_nanos();
-            f.newest_ns = Some(f.newest_ns.map_or(stamp, |n| n.max(stamp)));
-            if stamp > now {
-                if f.pending.len() >= MAX_PENDING_WRENCHES {
-                    f.pending.pop_front();
-                }
-                f.pending.push_back((arm, msg.clone()));
-                return None;
-            }
+        if self.defer(arm, msg.header.stamp.to_nanos(), || Timed::Wrench(msg.clone())) {
+            return None;
         }
         self.apply_wrench(arm, msg)
+    }
+
+    /// Makes arm `arm` follow the joint targets of `msg` (`/lwr/follow_joints`: `position` in
+    /// the model's joint order; `name`, when given, must be the arm's joint names in that
+    /// order) for `command_timeout_s`; when following teacher stamps, one stamped in the future
+    /// waits for its time like a wrench. A refused one holds the arm; the warning says why.
+    pub fn on_follow_joints(&mut self, arm: usize, msg: &JointState) -> Option<Warning> {
+        if self.defer(arm, msg.header.stamp.to_nanos(), || Timed::Joints(msg.clone())) {
+            return None;
+        }
+        self.apply_follow_joints(arm, msg)
+    }
+
+    /// When following teacher stamps, notes `stamp_ns` and queues an input stamped in the
+    /// future (true: deferred).
+    fn defer(&mut self, arm: usize, stamp_ns: i64, input: impl FnOnce() -> Timed) -> bool {
+        let now = self.sim.time_ns();
+        let Some(f) = self.follow.as_mut() else {
+            return false;
+        };
+        f.newest_ns = Some(f.newest_ns.map_or(stamp_ns, |n| n.max(stamp_ns)));
+        if stamp_ns <= now {
+            return false;
+        }
+        if f.pending.len() >= MAX_PENDING_WRENCHES {
+            f.pending.pop_front();
+        }
+        f.pending.push_back((arm, input()));
+        true
+    }
+
+    fn apply_follow_joints(&mut self, arm: usize, msg: &JointState) -> Option<Warning> {
+        let topic = &self.arm_topics[arm].follow;
+        let names = self.sim.model().joint_names();
+        if !msg.name.is_empty() && msg.name.as_slice() != names {
+            let got = cowork_ros::text_prefix(&msg.name.join(", "), 200).into_owned();
+            let warning = Warning::new(
+                format!("{topic}:name"),
+                format!("{topic}: joint names [{got}] are not the arm's [{}] in order; arm held", names.join(", ")),
+            );
+            self.sim.hold_arm(arm);
+            return Some(warning);
+        }
+        self.sim
+            .set_arm_joint_target(arm, &msg.position)
+            .err()
+            .map(|e| Warning::new(format!("{topic}:position"), format!("{topic} rejected, arm held: {e}")))
     }
 
     fn apply_wrench(&mut self, arm: usize, msg: &WrenchStamped) -> Option<Warning> {
@@ -458,9 +518,13 @@ impl LwrSim {
         while let Some(w) = self
             .follow
             .as_mut()
-            .and_then(|f| f.pending.front().is_some_and(|(_, w)| w.header.stamp.to_nanos() <= now).then(|| f.pending.pop_front()).flatten())
+            .and_then(|f| f.pending.front().is_some_and(|(_, w)| w.stamp_ns() <= now).then(|| f.pending.pop_front()).flatten())
         {
-            if let Some(warning) = self.apply_wrench(w.0, &w.1)
+            let refused = match &w.1 {
+                Timed::Wrench(m) => self.apply_wrench(w.0, m),
+                Timed::Joints(m) => self.apply_follow_joints(w.0, m),
+            };
+            if let Some(warning) = refused
                 && self.step_warnings.len() < MAX_STEP_WARNINGS
             {
                 self.step_warnings.push(warning);

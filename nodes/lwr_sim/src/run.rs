@@ -168,6 +168,7 @@ pub fn run(node: RosNode, mut lwr: LwrSim, pacing: Pacing, duration: Option<f64>
         source.add_in(&topics::GRIPPER_COMMAND, &ns, move |m| Input::GripperCommand(arm, m))?;
         // Deep (the topic's 1000): a replayed teacher may send its wrenches ahead of their stamps.
         source.add_in(&topics::EXTERNAL_WRENCH, &ns, move |m| Input::Wrench(arm, m))?;
+        source.add_in(&topics::FOLLOW_JOINTS, &ns, move |m| Input::FollowJoints(arm, m))?;
     }
     // Best effort matches every writer (reliable bags, best-effort trackers).
     source.add(&topics::SKELETON.reading(Delivery::BestEffort { depth: 20 }), Input::Skeleton)?;

@@ -135,3 +135,57 @@ fn the_depth_camera_sees_both_arms() {
     assert!(left_only > 2000, "the left arm is in view ({left_only} px)");
     assert!(both > left_only + 2000, "the right arm adds its pixels ({both} vs {left_only} px)");
 }
+
+fn follow(stamp_ns: i64, names: Vec<String>, position: Vec<f64>) -> cowork_msgs::sensor_msgs::JointState {
+    cowork_msgs::sensor_msgs::JointState {
+        header: Header { stamp: cowork_msgs::builtin_interfaces::Time::from_nanos(stamp_ns), frame_id: String::new() },
+        name: names,
+        position,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn an_arm_follows_its_retargeted_joints_at_their_stamps_and_refuses_bad_ones() {
+    let mut n = pizza();
+    n.follow_wrench_stamps();
+    let names = n.joint_states(1).name.clone();
+    let start = n.joint_states(1).position;
+    let left_start = n.joint_states(0).position;
+    let mut target = start.clone();
+    target[1] += 0.2;
+    // Stamped 0.5 s ahead: queued, the arm keeps still until then; the clock holds at the newest stamp.
+    assert!(n.on_input(&Input::FollowJoints(1, follow(500_000_000, names.clone(), target.clone()))).is_none());
+    let mut out = Vec::new();
+    while !n.waiting_for_wrench() {
+        n.on_step(&mut out);
+        if n.time_s() < 0.499 {
+            assert_eq!(n.joint_states(1).position, start, "moved before the stamp at {} s", n.time_s());
+        }
+    }
+    assert!((n.time_s() - 0.5).abs() < 1e-9, "held at the newest stamp, not {} s", n.time_s());
+    // Refreshed every 8 ms (a 120 Hz suit) for 1 s: the arm reaches the target.
+    for k in 1..=125 {
+        n.on_input(&Input::FollowJoints(1, follow(500_000_000 + k * 8_000_000, names.clone(), target.clone())));
+        while !n.waiting_for_wrench() {
+            n.on_step(&mut out);
+        }
+    }
+    let reached = n.joint_states(1).position;
+    assert!((reached[1] - target[1]).abs() < 1e-3, "{reached:?} vs {target:?}");
+    assert_eq!(n.joint_states(0).position, left_start, "the other arm did not move");
+    // Names in another order, a target outside the limits: refused naming the arm's topic.
+    let mut shuffled = names.clone();
+    shuffled.swap(0, 1);
+    let stamp = (n.time_s() * 1e9) as i64;
+    for (msg, field) in [
+        (follow(stamp, shuffled, target.clone()), "/right/lwr/follow_joints:name"),
+        (follow(stamp, names.clone(), vec![0.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0]), "/right/lwr/follow_joints:position"),
+        (follow(stamp, Vec::new(), vec![0.0; 4]), "/right/lwr/follow_joints:position"),
+    ] {
+        match n.on_input(&Input::FollowJoints(1, msg)) {
+            Some(Output::Warning(w)) => assert_eq!(w.kind, field, "{}", w.message),
+            other => panic!("{other:?}"),
+        }
+    }
+}

@@ -22,6 +22,9 @@ pub enum CommandError {
     /// A joint velocity command with the wrong number of entries.
     #[error("joint velocity command has {got} entries, the robot has {expected} joints")]
     WrongLength { got: usize, expected: usize },
+    /// A joint position target outside joint `index`'s limits.
+    #[error("joint target[{index}] = {value} rad is outside the joint's limits [{lower}, {upper}] rad")]
+    OutsideLimits { index: usize, value: f64, lower: f64, upper: f64 },
     /// A command or wrench entry that is NaN or infinite.
     #[error("{what}[{index}] is not finite ({value})")]
     NotFinite { what: &'static str, index: usize, value: f64 },

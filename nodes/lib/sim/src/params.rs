@@ -24,6 +24,10 @@ pub struct SimParams {
     pub grasp_reach_m: f64,
     /// Released objects drop onto the table top or the top of the object below them.
     pub drop_released_objects: bool,
+    /// Following a joint position target ([`crate::Simulator::set_arm_joint_target`],
+    /// imitation teaching): joint velocity = this × (target − position), 1/s, within the joint
+    /// speed limits. A target is followed for at most `command_timeout_s` after it was set.
+    pub follow_gain: f64,
 }
 
 impl Default for SimParams {
@@ -37,6 +41,7 @@ impl Default for SimParams {
             wrench_timeout_s: 0.1,
             grasp_reach_m: 0.05,
             drop_released_objects: true,
+            follow_gain: 20.0,
         }
     }
 }
@@ -62,11 +67,15 @@ impl SimParams {
             ("admittance_rotational_gain", self.admittance_rotational_gain),
             ("admittance_damping", self.admittance_damping),
             ("grasp_reach_m", self.grasp_reach_m),
+            ("follow_gain", self.follow_gain),
         ];
         for (field, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {
                 return Err(bad(place, field, value, "must be a finite number >= 0"));
             }
+        }
+        if self.follow_gain > 1000.0 {
+            return Err(bad(place, "follow_gain", self.follow_gain, "must be at most 1000 1/s"));
         }
         Ok(())
     }

@@ -99,6 +99,9 @@ pub struct Arm {
     qd: JointVector,
     command: JointVector,
     command_time_ns: Option<i64>,
+    /// Joint position target followed instead of the command while fresh (imitation teaching).
+    target: JointVector,
+    target_time_ns: Option<i64>,
     wrench: Option<(Wrench, usize, i64)>,
     gripper: GripperState,
     /// Pose of the held object in the tool frame.
@@ -258,6 +261,8 @@ impl Simulator {
                 qd: JointVector::zeros(),
                 command: JointVector::zeros(),
                 command_time_ns: None,
+                target: JointVector::zeros(),
+                target_time_ns: None,
                 wrench: None,
                 gripper: GripperState::Open,
                 grasp_offset: Isometry3::identity(),
@@ -324,6 +329,39 @@ impl Simulator {
         Ok(())
     }
 
+    /// Arm `arm` follows the joint position target `q` (rad) — a person's arm retargeted onto it
+    /// during imitation teaching — with joint velocity `follow_gain` × (target − position)
+    /// within the speed limits, for `command_timeout_s` after this call (refresh it at the
+    /// demonstrator's rate). While a target is fresh it overrides the velocity command and any
+    /// external wrench. A target of the wrong length, not finite or outside the joint limits is
+    /// refused and the arm held.
+    pub fn set_arm_joint_target(&mut self, arm: usize, q: &[f64]) -> Result<(), CommandError> {
+        if q.len() != DOF {
+            self.hold_arm(arm);
+            return Err(CommandError::WrongLength { got: q.len(), expected: DOF });
+        }
+        if let Some((index, value)) = q.iter().copied().enumerate().find(|(_, v)| !v.is_finite()) {
+            self.hold_arm(arm);
+            return Err(CommandError::NotFinite { what: "joint target", index, value });
+        }
+        let limits = self.model.joint_limits();
+        if let Some((index, value)) = q.iter().copied().enumerate().find(|&(i, v)| v < limits[i].lower || v > limits[i].upper) {
+            let (lower, upper) = (limits[index].lower, limits[index].upper);
+            self.hold_arm(arm);
+            return Err(CommandError::OutsideLimits { index, value, lower, upper });
+        }
+        let a = &mut self.arms[arm];
+        a.target = JointVector::from_column_slice(q);
+        a.target_time_ns = Some(self.time_ns);
+        Ok(())
+    }
+
+    /// Whether arm `arm` is following a joint target now ([`Self::set_arm_joint_target`]).
+    pub fn arm_follows_target(&self, arm: usize) -> bool {
+        let timeout_ns = (self.params.command_timeout_s * 1e9) as i64;
+        self.arms[arm].target_time_ns.is_some_and(|t| self.time_ns - t <= timeout_ns)
+    }
+
     /// Stops the commanded motion of every arm until its next command.
     pub fn hold(&mut self) {
         for arm in 0..self.arms.len() {
@@ -336,6 +374,7 @@ impl Simulator {
         let a = &mut self.arms[arm];
         a.command = JointVector::zeros();
         a.command_time_ns = None;
+        a.target_time_ns = None;
     }
 
     /// Applies an external wrench to the first arm ([`Self::set_arm_wrench`]).
@@ -654,13 +693,17 @@ fn aabb_gap(a: &parry3d_f64::bounding_volume::Aabb, b: &parry3d_f64::bounding_vo
 fn step_arm(arm: &mut Arm, model: &RobotModel, params: &SimParams, time_ns: i64, step_ns: i64) {
     let dt = step_ns as f64 * 1e-9;
     let timeout_ns = (params.command_timeout_s * 1e9) as i64;
+    let following = arm.target_time_ns.is_some_and(|t| time_ns - t <= timeout_ns);
     let mut qd = match arm.command_time_ns {
+        _ if following => params.follow_gain * (arm.target - arm.q),
         Some(t) if time_ns - t <= timeout_ns => arm.command,
         _ => JointVector::zeros(),
     };
     let wrench_timeout_ns = (params.wrench_timeout_s * 1e9) as i64;
     if let Some((w, link, t)) = arm.wrench {
-        if time_ns - t <= wrench_timeout_ns {
+        if following {
+            // The demonstrator moves the arm: a push does not add to it.
+        } else if time_ns - t <= wrench_timeout_ns {
             qd += admittance_velocity(arm, model, params, &w, link);
         } else {
             arm.wrench = None;

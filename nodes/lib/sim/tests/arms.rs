@@ -158,3 +158,43 @@ fn overlapping_or_intersecting_arms_and_bad_arm_lists_are_refused() {
     scene.arms.clear();
     assert!(matches!(scene.validate("x"), Err(SimError::BadValue { .. })));
 }
+
+#[test]
+fn an_arm_follows_a_joint_target_over_its_command_and_stops_when_the_target_stops() {
+    let mut sim = Simulator::new(model(), pizza(), SimParams::default()).expect("simulator");
+    let (left, right) = (sim.arm_index("left").expect("left"), sim.arm_index("right").expect("right"));
+    let start = *sim.arm(left).joint_positions();
+    let right_start = *sim.arm(right).joint_positions();
+    let mut target = start;
+    target[0] += 0.3;
+    target[3] -= 0.2;
+    // A velocity command the other way is overridden while the target is fresh.
+    for _ in 0..1500 {
+        sim.set_arm_velocity_command(left, &[-0.5; 7]).expect("command");
+        sim.set_arm_joint_target(left, target.as_slice()).expect("target");
+        assert!(sim.arm_follows_target(left));
+        sim.step();
+    }
+    assert!((sim.arm(left).joint_positions() - target).amax() < 1e-3, "{} vs {target}", sim.arm(left).joint_positions());
+    assert_eq!(*sim.arm(right).joint_positions(), right_start, "the other arm does not move");
+    // The target stops coming: after command_timeout_s the arm is back on its (zero) command.
+    sim.hold_arm(left);
+    let mut far = start;
+    far[1] -= 0.5;
+    sim.set_arm_joint_target(left, far.as_slice()).expect("target");
+    for _ in 0..1000 {
+        sim.step();
+    }
+    assert!(!sim.arm_follows_target(left));
+    let moved = (sim.arm(left).joint_positions() - target).amax();
+    let expected = SimParams::default().follow_gain * 0.5 * SimParams::default().command_timeout_s * 1.5;
+    assert!(moved > 0.0 && moved < expected, "moved {moved} rad after the target went stale");
+    // Refused: outside the limits, not finite, wrong length; the arm is held.
+    let mut bad = start;
+    bad[1] = 3.0;
+    let e = sim.set_arm_joint_target(left, bad.as_slice()).expect_err("outside limits");
+    assert!(e.to_string().contains("target[1] = 3 rad is outside"), "{e}");
+    assert!(!sim.arm_follows_target(left));
+    assert!(sim.set_arm_joint_target(left, &[f64::NAN; 7]).is_err());
+    assert!(sim.set_arm_joint_target(left, &[0.0; 6]).is_err());
+}
