@@ -7,12 +7,12 @@ use cowork_msgs::msg::{Gesture, HumanState, Skeleton};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::{ColorRGBA, Header, String as RosString};
 use cowork_msgs::visualization_msgs::{Marker, MarkerArray};
-use cowork_observer::{GestureModel, GestureReport, HumanOutput, Mode, Observer};
+use cowork_observer::{GestureModel, GestureReport, HumanOutput, Mode, Observer, Retargeter};
 use cowork_people::body_capsules;
 use cowork_robot::RobotModel;
 use nalgebra::{Point3, UnitQuaternion, Vector3};
 
-use crate::params::Params;
+use crate::params::{Params, RetargetArm};
 use cowork_msgs::topics::{JOINT_STATES, SKELETON, SPEECH_COMMAND};
 
 pub use cowork_ros::Warning;
@@ -44,6 +44,41 @@ pub struct ObserverNode {
     /// The node's clock at the last [`Self::set_clock`] / [`Self::on_tick`], s: when skeleton
     /// frames arrive (`None`: at their stamps).
     clock: Option<f64>,
+    model: RobotModel,
+    /// One per `retarget.arms` entry.
+    demonstration: Vec<ArmDemonstration>,
+    /// The demonstrator (the first Xsens person seen) once one is.
+    demonstrator: Option<u32>,
+}
+
+/// Imitation teaching state of one driven arm.
+#[derive(Debug)]
+struct ArmDemonstration {
+    params: RetargetArm,
+    /// The arm's latest `/joint_states` positions (model joint order), the IK's start.
+    joints: Option<cowork_robot::JointVector>,
+    /// Running since the demonstrator's last frame; restarted from the arm's joints after a gap.
+    retargeter: Option<Retargeter>,
+    /// Stamp of the last frame retargeted, s.
+    last_stamp: f64,
+    /// `/lwr/follow_joints`, reused.
+    msg: JointState,
+}
+
+/// A demonstrator silent this long (by stamps) starts again from the arm's joints, s.
+pub const DEMONSTRATION_GAP_S: f64 = 0.5;
+
+/// What one demonstrator frame gave.
+#[derive(Debug, Clone, Default)]
+pub struct DemonstratorOutput {
+    /// `(index in retarget.arms, /lwr/follow_joints)`.
+    pub targets: Vec<(usize, JointState)>,
+    /// Whether the frame is also a person near the robot, for the observer: the demonstrator's
+    /// skeleton is in the robot base frame. (A suit worn away from the robot, in another frame,
+    /// only drives it.)
+    pub track_as_person: bool,
+    /// Warnings about the frame.
+    pub warnings: Vec<Warning>,
 }
 
 /// Namespace of the capsule body markers (id = person index × 16 + capsule).
@@ -74,8 +109,24 @@ impl ObserverNode {
     pub fn new(model: RobotModel, params: Params, gestures: Option<GestureModel>) -> Result<Self> {
         params.validate("human_observer parameters")?;
         let base_frame = params.observer.base_frame.clone();
-        let observer = Observer::new(model, params.observer.clone(), gestures)?;
+        let observer = Observer::new(model.clone(), params.observer.clone(), gestures)?;
+        let names = model.joint_names().to_vec();
+        let demonstration = params
+            .retarget
+            .arms
+            .iter()
+            .map(|a| ArmDemonstration {
+                params: a.clone(),
+                joints: None,
+                retargeter: None,
+                last_stamp: f64::NEG_INFINITY,
+                msg: JointState { name: names.clone(), position: vec![0.0; names.len()], ..Default::default() },
+            })
+            .collect();
         Ok(Self {
+            model,
+            demonstration,
+            demonstrator: None,
             params,
             observer,
             base_frame,
@@ -125,6 +176,91 @@ impl ObserverNode {
         self.observer
             .on_joint_state(msg.header.stamp.to_secs_f64(), &msg.name, &msg.position)
             .map_err(|e| Warning { kind: JOINT_STATES.name.to_string(), message: format!("{}: message ignored: {e}", JOINT_STATES.name) })
+    }
+
+    /// The arms a demonstrator drives (`retarget.arms`), by index.
+    pub fn retarget_arms(&self) -> impl Iterator<Item = &RetargetArm> {
+        self.demonstration.iter().map(|d| &d.params)
+    }
+
+    /// `<arm>/joint_states` of driven arm `index`: where its retargeting starts.
+    pub fn on_arm_joint_state(&mut self, index: usize, msg: &JointState) -> Result<(), Warning> {
+        let names = self.model.joint_names();
+        let d = &mut self.demonstration[index];
+        let topic = JOINT_STATES.name_in(&format!("/{}", d.params.arm)).into_owned();
+        let mut q = cowork_robot::JointVector::zeros();
+        for (i, name) in names.iter().enumerate() {
+            let Some(k) = msg.name.iter().position(|n| n == name) else {
+                return Err(Warning { kind: format!("{topic}:name"), message: format!("{topic}: no joint {name:?}; message ignored") });
+            };
+            match msg.position.get(k) {
+                Some(v) if v.is_finite() => q[i] = *v,
+                _ => {
+                    return Err(Warning {
+                        kind: format!("{topic}:position"),
+                        message: format!("{topic}: position of {name:?} missing or not finite; message ignored"),
+                    });
+                }
+            }
+        }
+        d.joints = Some(q);
+        Ok(())
+    }
+
+    /// Imitation teaching: an Xsens skeleton of the demonstrator (the first suit seen) is
+    /// retargeted (eq. 4.7) onto every driven arm; each target is stamped with the frame's
+    /// stamp. An arm whose joints are not known yet, or a frame that is refused, gives a
+    /// warning and no target (the arm then stops within the simulator's command timeout).
+    /// Frames of other sources or people, and every frame when no arm is driven, are only for
+    /// the observer.
+    pub fn on_demonstrator(&mut self, msg: &Skeleton) -> DemonstratorOutput {
+        let mut out = DemonstratorOutput { track_as_person: true, ..Default::default() };
+        if self.demonstration.is_empty() || msg.source != Skeleton::SOURCE_XSENS {
+            return out;
+        }
+        if *self.demonstrator.get_or_insert(msg.person_id) != msg.person_id {
+            return out;
+        }
+        let frame = msg.header.frame_id.trim_start_matches('/');
+        out.track_as_person = frame.is_empty() || frame == self.base_frame;
+        let stamp = msg.header.stamp.to_secs_f64();
+        let frame_id = if frame.is_empty() { self.base_frame.clone() } else { frame.to_owned() };
+        for (index, d) in self.demonstration.iter_mut().enumerate() {
+            let topic = cowork_msgs::topics::FOLLOW_JOINTS.name_in(&format!("/{}", d.params.arm)).into_owned();
+            if !(stamp - d.last_stamp <= DEMONSTRATION_GAP_S && stamp >= d.last_stamp) {
+                d.retargeter = None;
+            }
+            if d.retargeter.is_none() {
+                let Some(q0) = d.joints else {
+                    out.warnings.push(Warning {
+                        kind: format!("{topic}:joints"),
+                        message: format!("{topic}: no joint states of arm {:?} yet: the demonstrator is not retargeted onto it", d.params.arm),
+                    });
+                    continue;
+                };
+                match Retargeter::new(self.model.clone(), d.params.config(), q0) {
+                    Ok(r) => d.retargeter = Some(r),
+                    Err(e) => {
+                        out.warnings.push(Warning { kind: format!("{topic}:config"), message: format!("{topic}: {e}") });
+                        continue;
+                    }
+                }
+            }
+            let Some(r) = d.retargeter.as_mut() else { continue };
+            match r.retarget_message(msg, &frame_id) {
+                Ok(t) => {
+                    d.last_stamp = stamp;
+                    d.msg.header = msg.header.clone();
+                    d.msg.position.copy_from_slice(t.joints.as_slice());
+                    out.targets.push((index, d.msg.clone()));
+                }
+                Err(e) => out.warnings.push(Warning {
+                    kind: format!("{}:demonstrator", SKELETON.name),
+                    message: format!("{}: demonstrator frame not retargeted onto arm {:?}: {e}", SKELETON.name, d.params.arm),
+                }),
+            }
+        }
+        out
     }
 
     /// `/speech_command`: `stop` / `repeat` (the words of the parameters) move the stop latch;

@@ -1,7 +1,8 @@
 //! The node's parameters: the `human_observer: ros__parameters:` block of its YAML file.
 
 use anyhow::{Result, bail};
-use cowork_observer::ObserverConfig;
+use cowork_observer::{ObserverConfig, RetargetConfig};
+use cowork_people::Side;
 use serde::{Deserialize, Serialize};
 
 /// The `human_observer: ros__parameters:` block.
@@ -27,6 +28,48 @@ pub struct Params {
     pub warning_period_s: f64,
     /// The observer (Kalman noise, thresholds, speeds, timeouts).
     pub observer: ObserverConfig,
+    /// Imitation teaching (thesis Sec. 4.2): the robot arms a demonstrator in a motion-capture
+    /// suit drives.
+    pub retarget: RetargetParams,
+}
+
+/// The `retarget:` block: each Xsens skeleton's arms retargeted (eq. 4.7) onto robot arms,
+/// published as `<arm namespace>/lwr/follow_joints` for the simulator to follow.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RetargetParams {
+    /// The arms driven; empty: no imitation teaching (the default).
+    pub arms: Vec<RetargetArm>,
+}
+
+/// One robot arm driven by one of the demonstrator's arms.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RetargetArm {
+    /// The arm's ROS namespace name (`left` → `/left/lwr/follow_joints`, `/left/joint_states`);
+    /// `""`: the arm of a single-arm graph, in this node's namespace.
+    pub arm: String,
+    /// The demonstrator's arm that drives it.
+    pub side: Side,
+    /// Roll, pitch, yaw (rad) of the demonstrator's sternum frame in the arm's base frame: the
+    /// inverse of the base's rotation in the world when the robot's trunk faces the world's +x
+    /// as the demonstrator's does (pizza scene: left [π/2, 0, 0], right [−π/2, 0, 0]).
+    #[serde(default)]
+    pub mount_rpy: [f64; 3],
+    /// Joint targets move at most this fraction of each joint's speed limit between frames.
+    #[serde(default = "one")]
+    pub speed_limit_fraction: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl RetargetArm {
+    /// The library's configuration for this arm (IK defaults).
+    pub fn config(&self) -> RetargetConfig {
+        RetargetConfig { side: self.side, mount_rpy: self.mount_rpy, speed_limit_fraction: self.speed_limit_fraction, ..RetargetConfig::default() }
+    }
 }
 
 impl Default for Params {
@@ -41,6 +84,7 @@ impl Default for Params {
             velocity_arrow_s: 0.5,
             warning_period_s: 5.0,
             observer: ObserverConfig::default(),
+            retarget: RetargetParams::default(),
         }
     }
 }
@@ -63,6 +107,20 @@ impl Params {
         }
         if let Err(e) = self.observer.validate("observer.") {
             bail!("{place}: {e}");
+        }
+        for (i, a) in self.retarget.arms.iter().enumerate() {
+            if !a.arm.is_empty() && !cowork_ros::is_name_token(&a.arm) {
+                bail!("{place}: `retarget.arms[{i}].arm` = {:?} is not a ROS name (letters, digits, _; not starting with a digit)", a.arm);
+            }
+            if self.retarget.arms[..i].iter().any(|b| b.arm == a.arm) {
+                bail!("{place}: `retarget.arms[{i}].arm` = {:?} is given twice", a.arm);
+            }
+            if !a.mount_rpy.iter().all(|v| v.is_finite() && v.abs() <= 2.0 * std::f64::consts::PI) {
+                bail!("{place}: `retarget.arms[{i}].mount_rpy` = {:?} must be finite angles within ±2π rad", a.mount_rpy);
+            }
+            if !(0.0..=1.0).contains(&a.speed_limit_fraction) {
+                bail!("{place}: `retarget.arms[{i}].speed_limit_fraction` = {} must be in [0, 1]", a.speed_limit_fraction);
+            }
         }
         Ok(())
     }

@@ -20,6 +20,8 @@ pub enum Input {
     Speech(RosString),
     /// `/human/skeleton`.
     Skeleton(Skeleton),
+    /// `<arm>/joint_states` of the driven arm with this index in `retarget.arms`.
+    ArmJointState(usize, JointState),
 }
 
 /// What the node puts out.
@@ -31,6 +33,8 @@ pub enum Output {
     Gesture(Gesture),
     /// `/human/markers`.
     Markers(MarkerArray),
+    /// `<arm>/lwr/follow_joints` of the driven arm with this index in `retarget.arms`.
+    FollowJoints(usize, JointState),
     /// A warning for the log (rate-limited by the caller).
     Warning(Warning),
 }
@@ -68,13 +72,23 @@ pub fn run_loop<S: InputSource<Input>>(source: &mut S, observer: &mut ObserverNo
             Event::Input(Input::Speech(m)) => {
                 observer.on_speech(&m);
             }
+            Event::Input(Input::ArmJointState(i, m)) => {
+                if let Err(w) = observer.on_arm_joint_state(i, &m) {
+                    emit(Output::Warning(w));
+                }
+            }
             Event::Input(Input::Skeleton(m)) => {
-                let out = observer.on_skeleton(&m);
+                let demo = observer.on_demonstrator(&m);
+                demo.warnings.into_iter().for_each(|w| emit(Output::Warning(w)));
+                demo.targets.into_iter().for_each(|(i, t)| emit(Output::FollowJoints(i, t)));
                 summary.skeletons += 1;
-                out.warnings.into_iter().for_each(|w| emit(Output::Warning(w)));
-                emit(Output::State(out.state));
-                if let Some(g) = out.gesture {
-                    emit(Output::Gesture(g));
+                if demo.track_as_person {
+                    let out = observer.on_skeleton(&m);
+                    out.warnings.into_iter().for_each(|w| emit(Output::Warning(w)));
+                    emit(Output::State(out.state));
+                    if let Some(g) = out.gesture {
+                        emit(Output::Gesture(g));
+                    }
                 }
             }
             Event::Deadline => {}
@@ -105,6 +119,14 @@ pub fn run(node: RosNode, mut observer: ObserverNode, options: &RunOptions) -> R
     let states = source.node().advertise(&topics::HUMAN_STATE)?;
     let gestures = source.node().advertise(&topics::GESTURE)?;
     let markers = if observer.params().publish_markers { Some(source.node().advertise(&topics::HUMAN_MARKERS)?) } else { None };
+    let mut follow = Vec::new();
+    let arms: Vec<String> = observer.retarget_arms().map(|a| a.arm.clone()).collect();
+    for (i, arm) in arms.iter().enumerate() {
+        let ns = if arm.is_empty() { source.node().namespace().to_owned() } else { format!("/{arm}") };
+        source.add_in(&topics::JOINT_STATES, &ns, move |m| Input::ArmJointState(i, m))?;
+        follow.push(source.node().advertise_in(&topics::FOLLOW_JOINTS, &ns)?);
+        tracing::info!("imitation teaching: an Xsens demonstrator drives {}", topics::FOLLOW_JOINTS.name_in(&ns));
+    }
     let mut warnings = Warnings::new(observer.params().warning_period_s);
     tracing::info!(
         "human_observer running: {} gesture templates, /human/state at >= {} Hz",
@@ -116,6 +138,7 @@ pub fn run(node: RosNode, mut observer: ObserverNode, options: &RunOptions) -> R
             Output::State(m) => states.send(m),
             Output::Gesture(m) => gestures.send(m),
             Output::Markers(m) => markers.as_ref().and_then(|p| p.send(m)),
+            Output::FollowJoints(i, m) => follow[i].send(m),
             Output::Warning(w) => Some(w),
         };
         if let Some(w) = failed {

@@ -55,6 +55,7 @@ fn scripted_person_stop_repeat_and_bad_frames_give_the_golden_outputs() {
                 }),
                 Output::Gesture(g) => json!({ "gesture": g.label }),
                 Output::Markers(m) => json!({ "markers": m.markers.len() }),
+                Output::FollowJoints(i, m) => json!({ "follow": i, "position": m.position }),
                 Output::Warning(w) => json!({ "warning": w.kind, "message": w.message }),
             }
             .to_string(),

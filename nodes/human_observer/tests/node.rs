@@ -194,3 +194,79 @@ fn over_dds_state_gesture_markers_and_bad_input() {
     assert!(got_gestures.iter().all(|g| stream.labels.iter().any(|l| l.label == g.label) && g.confidence > 0.0 && g.dtw_distance >= 0.0));
     assert!(marker_arrays > 0);
 }
+
+/// The pizza arms driven by an Xsens demonstrator (config/human_observer.yaml's `/left` block).
+fn two_arm_params() -> Params {
+    let text = std::fs::read_to_string(root().join("config/human_observer.yaml")).expect("file");
+    let mut p: Params = cowork_ros::params::from_str_in(&text, "human_observer", Some("/left"), "config/human_observer.yaml").expect("params");
+    p.urdf = root().join("config/robot/lwr4plus.urdf").display().to_string();
+    p.gestures = String::new();
+    p
+}
+
+fn suit(p: &Performer, t: f64, frame_id: &str) -> Skeleton {
+    p.pose(t).to_message(&cowork_people::MessageMeta {
+        stamp: Time::from_secs_f64(t),
+        frame_id,
+        source: Skeleton::SOURCE_XSENS,
+        person_id: p.person_id(),
+        with_velocities: false,
+    })
+}
+
+#[test]
+fn an_xsens_demonstrator_drives_each_arm_with_its_own_arm_and_a_bystander_does_not() {
+    let params = two_arm_params();
+    let arms: Vec<_> = params.retarget.arms.iter().map(|a| (a.arm.clone(), a.side)).collect();
+    assert_eq!(arms, [("left".to_owned(), cowork_people::Side::Left), ("right".to_owned(), cowork_people::Side::Right)]);
+    let mut node = ObserverNode::new(model(), params, None).expect("node");
+    // The demonstrator raises the left arm forward; the right hangs.
+    let demonstrator = Performer::new(1, BodySize::MEDIUM, Stance::new(-0.15, 0.0, 0.0), 1)
+        .expect("p")
+        .then(cowork_people::Action::Reach {
+            side: cowork_people::Side::Left,
+            target: nalgebra::Point3::new(0.4, 0.3, 0.6),
+            duration: 1.0,
+            hold: 1.0,
+        })
+        .expect("reach");
+    // No joint states yet: nothing to start from, a warning per arm, no target.
+    let first = node.on_demonstrator(&suit(&demonstrator, 0.0, "world"));
+    assert!(first.targets.is_empty() && first.warnings.len() == 2, "{:?}", first.warnings);
+    assert!(first.warnings[0].message.contains("/left/lwr/follow_joints"), "{}", first.warnings[0].message);
+    assert!(!first.track_as_person, "a suit in the world frame only drives the arms");
+    node.on_arm_joint_state(0, &joint_state(0.0)).expect("left joints");
+    node.on_arm_joint_state(1, &joint_state(0.0)).expect("right joints");
+    let mut last = Vec::new();
+    for k in 0..240 {
+        let t = k as f64 / 120.0;
+        let out = node.on_demonstrator(&suit(&demonstrator, t, "world"));
+        assert!(out.warnings.is_empty(), "{:?}", out.warnings);
+        assert_eq!(out.targets.iter().map(|t| t.0).collect::<Vec<_>>(), [0, 1]);
+        assert_eq!(out.targets[0].1.header.stamp, Time::from_secs_f64(t), "stamped with the frame");
+        last = out.targets;
+    }
+    // The left robot arm's hand went forward (base x = world x for the pizza mount) and up
+    // from the hanging start; the right arm, driven by the hanging arm, stayed low.
+    let m = model();
+    let mut poses = cowork_robot::LinkPoses::new();
+    let wrist = |q: &[f64], poses: &mut cowork_robot::LinkPoses| {
+        m.forward_kinematics(&cowork_robot::JointVector::from_column_slice(q), poses);
+        poses.get(m.joint_link(5)).translation.vector
+    };
+    let left = wrist(&last[0].1.position, &mut poses);
+    let right = wrist(&last[1].1.position, &mut poses);
+    assert!(left.x > 0.3, "left wrist {left}");
+    assert!(left.x > right.x + 0.2, "left {left} right {right}");
+    // A bystander seen by the depth camera, and a second suit, drive nothing.
+    let bystander = Performer::new(2, BodySize::MEDIUM, Stance::new(1.0, 0.0, 3.14), 2).expect("p");
+    let out = node.on_demonstrator(&skeleton(&bystander, 2.0));
+    assert!(out.targets.is_empty() && out.track_as_person);
+    let out = node.on_demonstrator(&suit(&bystander, 2.0, "world"));
+    assert!(out.targets.is_empty() && out.track_as_person);
+    // Bad parameters are refused naming the field.
+    let mut bad = two_arm_params();
+    bad.retarget.arms[1].arm = "left".into();
+    let e = ObserverNode::new(model(), bad, None).expect_err("twice");
+    assert!(format!("{e:#}").contains("retarget.arms[1].arm"), "{e:#}");
+}

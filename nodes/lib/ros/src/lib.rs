@@ -34,7 +34,7 @@ pub mod input;
 mod joints;
 pub use joints::joint_positions;
 mod node;
-pub use node::{discovery_on_all_networks, domain_id_from_env};
+pub use node::{discovery_on_all_networks, domain_id_from_env, is_name_token};
 pub mod params;
 pub mod qos;
 pub mod raw;

@@ -102,7 +102,7 @@ pub(crate) fn validate_namespace(namespace: &str) -> Result<()> {
 }
 
 /// Whether `token` is one token of a ROS name (a node name, a namespace part): `[A-Za-z_][A-Za-z0-9_]*`.
-pub(crate) fn is_name_token(token: &str) -> bool {
+pub fn is_name_token(token: &str) -> bool {
     let mut chars = token.chars();
     chars.next().is_some_and(|c| c.is_ascii_alphabetic() || c == '_') && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
