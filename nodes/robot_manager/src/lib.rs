@@ -21,7 +21,7 @@ pub mod params;
 pub mod preview;
 pub mod run;
 
-pub use node::{Outbox, RobotManagerNode};
+pub use node::{Outbox, RobotManagerNode, addressed};
 pub use params::Params;
 pub use cowork_ros::RunOptions;
 pub use run::{Input, run, run_loop};

@@ -407,15 +407,30 @@ impl RobotManagerNode {
         self.run(Input::Joints { t: seconds(&msg.header.stamp), q }, now, outbox);
     }
 
-    /// `/speech_command`.
+    /// `/speech_command`. Words for every arm (`teach`), or addressed to one arm of a robot
+    /// with named arms (`left: teach`, `left: gripper close`): another arm's words are not this
+    /// manager's business; addressed words on a single-arm robot are refused with a warning.
     pub fn on_speech(&mut self, msg: &RosString, now: Stamp, outbox: &mut Outbox) {
-        self.run(Input::Speech(msg.data.clone()), now, outbox);
+        let Some((arm, words)) = addressed(&msg.data) else {
+            return self.run(Input::Speech(msg.data.clone()), now, outbox);
+        };
+        if arm == self.arm {
+            self.run(Input::Speech(words.to_owned()), now, outbox);
+        } else if self.arm.is_empty() {
+            let text = cowork_ros::text_prefix(msg.data.trim(), 80);
+            self.warn(&format!("/speech_command {text:?} is for arm `{arm}`: this robot_manager serves a single-arm robot; ignored"));
+        }
     }
 
     /// Serves arm `arm` of a robot with named arms (the last token of the node's namespace:
     /// `left` for `/left`): only `/supervisor/action` commands for that arm are executed.
     pub fn set_arm(&mut self, arm: &str) {
         arm.clone_into(&mut self.arm);
+    }
+
+    /// Teaching or executing.
+    pub fn mode(&self) -> Mode {
+        self.manager.mode()
     }
 
     /// The arm served ([`set_arm`](Self::set_arm)); empty for a single-arm robot.
@@ -481,6 +496,14 @@ impl RobotManagerNode {
     pub fn tick(&mut self, now: Stamp, outbox: &mut Outbox) {
         self.run(Input::Tick, now, outbox);
     }
+}
+
+/// Splits speech addressed to an arm, `left: teach` → (`left`, `teach`); `None` when the words
+/// name no arm (no `:` after a first word that is a ROS name).
+pub fn addressed(text: &str) -> Option<(&str, &str)> {
+    let (arm, words) = text.trim().split_once(':')?;
+    let arm = arm.trim();
+    cowork_ros::is_name_token(arm).then_some((arm, words.trim()))
 }
 
 /// Writes `db` to `path` atomically and durably ([`Database::save`]: temporary file, fsync,

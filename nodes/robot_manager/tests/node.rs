@@ -259,3 +259,42 @@ fn an_arms_manager_runs_its_arms_commands_only() {
     assert!(out.motion.is_empty());
     assert_eq!(single.warnings(), 1);
 }
+
+#[test]
+fn speech_addressed_to_an_arm_reaches_only_that_arms_manager() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let managers = ["left", "right"].map(|arm| {
+        let (mut n, _) = RobotManagerNode::new(params(dir.path()), 1);
+        n.set_arm(arm);
+        let mut out = Outbox::default();
+        n.on_world(&world(1.0), at(1.0), &mut out);
+        n
+    });
+    let [mut left, mut right] = managers;
+    let say = |n: &mut RobotManagerNode, words: &str, t: f64| {
+        let mut out = Outbox::default();
+        n.on_speech(&RosString::new(words), at(t), &mut out);
+        out
+    };
+    for (words, t) in [("left: teach", 1.1), (" left :  gripper close ", 1.2)] {
+        let l = say(&mut left, words, t);
+        let r = say(&mut right, words, t);
+        assert!(r.gripper.is_empty() && r.robot_stream.is_empty() && r.motion.is_empty(), "{words:?} reached the right arm: {r:?}");
+        if words.contains("gripper") {
+            assert_eq!(l.gripper.iter().map(|g| g.data.as_str()).collect::<Vec<_>>(), ["close"], "{words:?}");
+        }
+    }
+    assert_eq!(left.mode(), cowork_manager::Mode::Teach);
+    assert_eq!(right.mode(), cowork_manager::Mode::Execute);
+    assert_eq!((left.warnings(), right.warnings()), (0, 0));
+    // Unaddressed words reach every arm.
+    say(&mut right, "teach", 1.3);
+    assert_eq!(right.mode(), cowork_manager::Mode::Teach);
+    // Addressed words on a single-arm robot: refused with a warning, nothing done.
+    let (mut single, _) = RobotManagerNode::new(params(dir.path()), 1);
+    let out = say(&mut single, "left: gripper close", 1.0);
+    assert!(out.gripper.is_empty());
+    assert_eq!(single.warnings(), 1);
+    assert_eq!(robot_manager::addressed("human: add(water)"), Some(("human", "add(water)")));
+    assert_eq!(robot_manager::addressed("human add(water)"), None);
+}
