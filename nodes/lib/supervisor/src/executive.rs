@@ -458,7 +458,19 @@ impl Supervisor {
     }
 
     fn speech(&mut self, raw: &str) {
-        let text = raw.trim();
+        let mut text = raw.trim();
+        // Words addressed to one arm (`left: teach`) are taken as the same words: one teaching
+        // session learns from whichever arm acts; `gripper …` is that arm's manager's business.
+        if let Some((arm, rest)) = text.split_once(':')
+            && !arm.trim().is_empty()
+            && arm.trim().chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+        {
+            if !self.state.arm_names().iter().any(|a| a == arm.trim()) {
+                let reason = format!("no arm `{}` in the LTM (arms: {})", arm.trim(), self.state.arm_names().join(", "));
+                return self.warn(Warning::IgnoredSpeech { text: text.to_owned(), reason });
+            }
+            text = rest.trim();
+        }
         let lower = text.to_lowercase();
         let words: Vec<&str> = lower.split_whitespace().collect();
         let ignored = |reason: &str| Warning::IgnoredSpeech { text: text.to_owned(), reason: reason.to_owned() };

@@ -124,3 +124,28 @@ fn bad_event_script_lines_are_reported() {
         .expect_err("bad");
     assert!(e.to_string().starts_with("event script line 2:"), "{e}");
 }
+
+#[test]
+fn words_addressed_to_an_arm_of_the_ltm_are_taken_and_to_any_other_refused() {
+    let mut sup = Supervisor::new(ltm("pizza.schema"), "pizza", SupervisorConfig::default()).expect("task");
+    sup.tick_vec(0.0);
+    sup.handle(&Event::Speech { text: "left: teach".into() }, 0.1);
+    let d = sup.tick_vec(0.1);
+    assert!(d.iter().any(|d| matches!(d, Decision::Mode { mode: cowork_supervisor::Mode::Teach })), "{d:?}");
+    sup.handle(&Event::Speech { text: "left: gripper close".into() }, 0.2);
+    sup.handle(&Event::Speech { text: "tentacle: done".into() }, 0.3);
+    let d = sup.tick_vec(0.3);
+    let warnings: Vec<String> = d
+        .iter()
+        .filter_map(|d| match d {
+            Decision::Warning { warning, .. } => Some(warning.to_string()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0].contains("no arm `tentacle` in the LTM (arms: left, right)"), "{}", warnings[0]);
+    assert!(!d.iter().any(|d| matches!(d, Decision::Mode { .. })), "still teaching: {d:?}");
+    sup.handle(&Event::Speech { text: "right: done".into() }, 0.4);
+    let d = sup.tick_vec(0.4);
+    assert!(d.iter().any(|d| matches!(d, Decision::Mode { mode: cowork_supervisor::Mode::Execute })), "{d:?}");
+}
