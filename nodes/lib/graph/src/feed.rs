@@ -1,4 +1,6 @@
-//! Kinesthetic demonstrations played into a running graph on the simulated clock.
+//! Demonstrations played into a running graph on the simulated clock: kinesthetic (the
+//! teacher's wrenches on the arm) or by imitation (an Xsens demonstrator's skeletons, which
+//! `human_observer` retargets onto the arms and `lwr_sim` follows).
 
 use std::collections::VecDeque;
 use std::path::Path;
@@ -6,6 +8,7 @@ use std::time::{Duration, Instant};
 
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::geometry_msgs::WrenchStamped;
+use cowork_msgs::msg::Skeleton;
 use cowork_msgs::std_msgs::String as RosString;
 use cowork_ros::{Publisher, RosNode};
 
@@ -20,12 +23,25 @@ pub const BAG_GAP_S: f64 = 1.0;
 #[derive(Debug)]
 enum Item {
     Wrench(WrenchStamped),
+    /// An Xsens demonstrator's frame (imitation teaching).
+    Skeleton(Box<Skeleton>),
     Speech(RosString),
 }
 
-/// One or more kinesthetic-teaching bags' `/external_wrench` and `/speech_command`, published
-/// into the graph on the simulated clock ([`TeachingFeed::play`]). Bags play one after the
-/// other, [`BAG_GAP_S`] apart, with a zero wrench at the end of each (the teacher lets go).
+/// A teacher's word without the arm it is addressed to (`left: teach` → (`left`, `teach`)),
+/// lower case.
+fn word(s: &RosString) -> (String, String) {
+    let text = s.data.trim().to_ascii_lowercase();
+    match text.split_once(':') {
+        Some((arm, w)) if !arm.trim().is_empty() && !arm.contains(char::is_whitespace) => (arm.trim().to_owned(), w.trim().to_owned()),
+        _ => (String::new(), text),
+    }
+}
+
+/// One or more teaching bags' `/external_wrench` (kinesthetic) or `/human/skeleton` (imitation)
+/// and `/speech_command`, published into the graph on the simulated clock
+/// ([`TeachingFeed::play`]). Bags play one after the other, [`BAG_GAP_S`] apart, with a zero
+/// wrench at the end of each (the teacher lets go).
 #[derive(Debug)]
 pub struct TeachingFeed {
     /// (feed time s, item), sorted by time.
@@ -33,13 +49,16 @@ pub struct TeachingFeed {
     /// Feed time at which each bag starts, and its length, s.
     bags: Vec<(f64, f64)>,
     wrench: Publisher<WrenchStamped>,
+    skeleton: Publisher<Skeleton>,
     speech: Publisher<RosString>,
+    /// Whether any bag is an imitation (skeletons).
+    imitation: bool,
 }
 
 fn read(bag: &Path, offset_s: f64, items: &mut Vec<(f64, Item)>) -> Result<f64> {
     let bad = |message: String| Error::Bag { path: bag.to_owned(), message };
     let reader = cowork_bag::BagReader::open(bag).map_err(|e| bad(e.to_string()))?;
-    let (mut last, mut wrenches) = (0.0f64, 0usize);
+    let (mut last, mut wrenches, mut skeletons) = (0.0f64, 0usize, 0usize);
     for m in reader.messages() {
         let m = m.map_err(|e| bad(e.to_string()))?;
         let t = m.log_time_ns as f64 * 1e-9;
@@ -48,16 +67,53 @@ fn read(bag: &Path, offset_s: f64, items: &mut Vec<(f64, Item)>) -> Result<f64> 
                 wrenches += 1;
                 Item::Wrench(m.decode().map_err(|e| bad(format!("/external_wrench at {t:.3} s: {e}")))?)
             }
+            "/human/skeleton" => {
+                let k: Skeleton = m.decode().map_err(|e| bad(format!("/human/skeleton at {t:.3} s: {e}")))?;
+                if k.source != Skeleton::SOURCE_XSENS {
+                    continue;
+                }
+                skeletons += 1;
+                Item::Skeleton(Box::new(k))
+            }
             "/speech_command" => Item::Speech(m.decode().map_err(|e| bad(format!("/speech_command at {t:.3} s: {e}")))?),
             _ => continue,
         };
         last = last.max(t);
         items.push((offset_s + t, item));
     }
-    if wrenches == 0 {
-        return Err(bad("no /external_wrench message: not a kinesthetic demonstration".into()));
+    match (wrenches, skeletons) {
+        (0, 0) => {
+            return Err(bad(
+                "no /external_wrench and no Xsens /human/skeleton message: not a demonstration (kinesthetic or by imitation)".into(),
+            ));
+        }
+        (w, k) if w > 0 && k > 0 => {
+            return Err(bad(format!("{w} wrenches and {k} Xsens skeletons: a demonstration is kinesthetic or by imitation, not both")));
+        }
+        _ => {}
     }
     Ok(last)
+}
+
+/// Per addressee (an arm, or everyone), keeps the first bag's `teach` and the last bag's
+/// `done` that say it to them and drops the others.
+fn one_session_per_arm(per_bag: &mut [Vec<(f64, Item)>]) {
+    let says = |b: &Vec<(f64, Item)>, arm: &str, w: &str| b.iter().any(|(_, i)| matches!(i, Item::Speech(s) if word(s) == (arm.to_owned(), w.to_owned())));
+    for k in 0..per_bag.len() {
+        let mut own = std::mem::take(&mut per_bag[k]);
+        own.retain(|(_, i)| match i {
+            Item::Speech(s) => {
+                let (arm, w) = word(s);
+                match w.as_str() {
+                    "teach" => !per_bag[..k].iter().any(|b| says(b, &arm, "teach")),
+                    "done" => !per_bag[k + 1..].iter().any(|b| says(b, &arm, "done")),
+                    _ => true,
+                }
+            }
+            Item::Wrench(_) | Item::Skeleton(_) => true,
+        });
+        per_bag[k] = own;
+    }
 }
 
 impl TeachingFeed {
@@ -69,32 +125,33 @@ impl TeachingFeed {
     /// The bags one after the other as one teaching session (Sec. 4.3.3: the teacher shows the
     /// subtasks in a row and says `done` once): bag k + 1 starts [`BAG_GAP_S`] after the last
     /// message of bag k, the teacher's hands off in between (zero wrenches at 100 Hz); every
-    /// `done` but the last and every `teach` but the first are left out.
+    /// `done` but the last and every `teach` but the first are left out — per arm for words
+    /// addressed to one (`left: teach`), so a session per arm stays one.
     pub fn from_bags<P: AsRef<Path>>(node: &mut RosNode, bags: &[P]) -> Result<Self> {
         let mut items = Vec::new();
         let mut spans = Vec::new();
         let mut offset = 0.0;
-        for (k, bag) in bags.iter().enumerate() {
+        let mut per_bag = Vec::new();
+        for bag in bags {
             let mut own = Vec::new();
             let len = read(bag.as_ref(), offset, &mut own)?;
-            let (first, last) = (k == 0, k + 1 == bags.len());
-            own.retain(|(_, i)| match i {
-                Item::Speech(s) => match s.data.trim().to_ascii_lowercase().as_str() {
-                    "teach" => first,
-                    "done" => last,
-                    _ => true,
-                },
-                Item::Wrench(_) => true,
-            });
-            items.append(&mut own);
-            spans.push((offset, len));
-            if !last {
+            per_bag.push(own);
+            offset += len + BAG_GAP_S;
+            spans.push((offset - len - BAG_GAP_S, len));
+        }
+        let imitation = per_bag.iter().flatten().any(|(_, i)| matches!(i, Item::Skeleton(_)));
+        one_session_per_arm(&mut per_bag);
+        let n = per_bag.len();
+        for (k, own) in per_bag.iter_mut().enumerate() {
+            items.append(own);
+            let (start, len) = spans[k];
+            if k + 1 < n {
+                let offset = start;
                 let mut t = offset + len + 1e-3;
                 while t < offset + len + BAG_GAP_S - 1e-3 {
                     items.push((t, Item::Wrench(WrenchStamped::default())));
                     t += 0.01;
                 }
-                offset += len + BAG_GAP_S;
             }
         }
         // Stable: a bag's own order is kept for equal stamps.
@@ -107,7 +164,9 @@ impl TeachingFeed {
             items,
             bags: spans,
             wrench: node.publisher("/external_wrench", &q).map_err(dds("/external_wrench"))?,
+            skeleton: node.publisher("/human/skeleton", &q).map_err(dds("/human/skeleton"))?,
             speech: node.publisher("/speech_command", &q).map_err(dds("/speech_command"))?,
+            imitation,
         })
     }
 
@@ -134,15 +193,23 @@ impl TeachingFeed {
             .iter()
             .filter_map(|(t, i)| match i {
                 Item::Speech(s) => Some((*t, s.data.clone())),
-                Item::Wrench(_) => None,
+                Item::Wrench(_) | Item::Skeleton(_) => None,
             })
             .collect()
     }
 
     /// Whether at least `wrench` readers of `/external_wrench` and `speech` of
-    /// `/speech_command` are matched.
+    /// `/speech_command` are matched (and, for an imitation, two of `/human/skeleton`: the
+    /// human observer that retargets it and the simulator).
     pub fn matched(&self, node: &RosNode, wrench: usize, speech: usize) -> bool {
-        self.wrench.subscription_count(node) >= wrench && self.speech.subscription_count(node) >= speech
+        self.wrench.subscription_count(node) >= wrench
+            && self.speech.subscription_count(node) >= speech
+            && (!self.imitation || self.skeleton.subscription_count(node) >= 2)
+    }
+
+    /// Whether the demonstrations are by imitation (Xsens skeletons) rather than kinesthetic.
+    pub fn is_imitation(&self) -> bool {
+        self.imitation
     }
 
     /// Plays the teacher into an `lwr_sim` that follows wrench stamps
@@ -201,8 +268,8 @@ impl TeachingFeed {
         let (mut wrenches, mut words) = (VecDeque::new(), VecDeque::new());
         for (t, item) in self.items {
             match item {
-                Item::Wrench(w) => wrenches.push_back((t0 + t, w)),
                 Item::Speech(s) => words.push_back((t0 + t, s)),
+                timed => wrenches.push_back((t0 + t, timed)),
             }
         }
         let mut last_zero = f64::NEG_INFINITY;
@@ -224,9 +291,17 @@ impl TeachingFeed {
             while let Some((due, _)) = wrenches.front()
                 && *due <= horizon
             {
-                let Some((due, mut w)) = wrenches.pop_front() else { break };
-                w.header.stamp = Time::from_secs_f64(due);
-                self.wrench.publish(w).map_err(dds("/external_wrench"))?;
+                match wrenches.pop_front() {
+                    Some((due, Item::Wrench(mut w))) => {
+                        w.header.stamp = Time::from_secs_f64(due);
+                        self.wrench.publish(w).map_err(dds("/external_wrench"))?;
+                    }
+                    Some((due, Item::Skeleton(mut k))) => {
+                        k.header.stamp = Time::from_secs_f64(due);
+                        self.skeleton.publish(*k).map_err(dds("/human/skeleton"))?;
+                    }
+                    _ => break,
+                }
                 summary.published += 1;
                 progressed = true;
             }
@@ -270,7 +345,7 @@ impl TeachingFeed {
                 std::thread::sleep(Duration::from_micros(500));
             }
         }
-        summary.dropped = self.wrench.dropped() + self.speech.dropped();
+        summary.dropped = self.wrench.dropped() + self.skeleton.dropped() + self.speech.dropped();
         Ok(summary)
     }
 }
@@ -307,7 +382,7 @@ mod tests {
             .iter()
             .filter_map(|(_, i)| match i {
                 Item::Speech(s) => Some(s.data.as_str()),
-                Item::Wrench(_) => None,
+                Item::Wrench(_) | Item::Skeleton(_) => None,
             })
             .collect();
         assert_eq!(words, ["teach", "gripper close", "gripper open", "done"]);
@@ -320,8 +395,35 @@ mod tests {
     fn a_bag_without_wrenches_or_no_bag_is_refused_by_name() {
         let mut items = Vec::new();
         let e = read(&bag("static-scene.mcap"), 0.0, &mut items).unwrap_err().to_string();
-        assert!(e.contains("static-scene.mcap") && e.contains("not a kinesthetic demonstration"), "{e}");
+        assert!(e.contains("static-scene.mcap") && e.contains("not a demonstration"), "{e}");
         let e = read(&bag("no-such.mcap"), 0.0, &mut items).unwrap_err().to_string();
         assert!(e.contains("no-such.mcap"), "{e}");
+    }
+
+    #[test]
+    fn each_arm_keeps_its_own_teaching_session_across_bags() {
+        let say = |t: f64, w: &str| (t, Item::Speech(RosString::new(w)));
+        let mut bags = vec![
+            vec![say(0.0, "teach"), say(1.0, "gripper close"), say(2.0, "done")],
+            vec![say(0.0, "teach"), say(2.0, "done")],
+            vec![say(0.0, "left: teach"), say(1.0, "left: gripper close"), say(2.0, "Left: done")],
+            vec![say(0.0, "right: teach"), say(2.0, "right: done")],
+        ];
+        one_session_per_arm(&mut bags);
+        let words: Vec<Vec<&str>> = bags
+            .iter()
+            .map(|b| {
+                b.iter()
+                    .filter_map(|(_, i)| match i {
+                        Item::Speech(s) => Some(s.data.as_str()),
+                        _ => None,
+                    })
+                    .collect()
+            })
+            .collect();
+        assert_eq!(words, [vec!["teach", "gripper close"], vec!["done"], vec!["left: teach", "left: gripper close", "Left: done"], vec![
+            "right: teach",
+            "right: done"
+        ]]);
     }
 }
