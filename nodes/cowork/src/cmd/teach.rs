@@ -6,6 +6,12 @@
 //! database; prints the segments, what the supervisor learned and the state its working memory
 //! ended in. The same teaching is the first half of every kitchen experiment
 //! (`cowork experiment pouring|coffee|...`).
+//!
+//! With `--arms "left right"` (a scene with named arms, config/scenes/pizza.yaml) it teaches by
+//! imitation (thesis Sec. 4.2, 5.2.4): the bags are an Xsens demonstrator's skeletons
+//! (`cowork bag synth pizza-demo-left`), one `robot_manager` runs per arm in its namespace and
+//! a `human_observer` retargets the demonstrator's arms onto the robot's, which `lwr_sim`
+//! follows; the words are addressed to an arm (`left: gripper close`).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -58,6 +64,10 @@ pub struct TeachArgs {
     /// Wall-clock seconds to wait for the nodes to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,
+    /// The scene's named arms, e.g. "left right": imitation teaching, one robot manager per
+    /// arm (the scene must have them).
+    #[arg(long, value_delimiter = ' ', num_args = 1..)]
+    pub arms: Vec<String>,
 }
 
 /// What a teaching run is given.
@@ -87,11 +97,15 @@ pub struct TeachSetup {
     pub startup_timeout_s: f64,
     /// DDS domain.
     pub domain: u16,
+    /// Named arms (empty: the single-arm graph, kinesthetic teaching).
+    pub arms: Vec<String>,
 }
 
 /// One segment the robot manager reported (Fig. 5.18).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Segment {
+    /// The arm that made it (empty on a single-arm robot).
+    pub arm: String,
     /// `foa1(water)`.
     pub label: String,
     /// `foa`, `noa` or `gripper`.
@@ -164,6 +178,7 @@ pub fn run(args: TeachArgs) -> Result<()> {
         logs: args.logs,
         startup_timeout_s: args.startup_timeout,
         domain: cowork_graph::private_domain(20, 80, 0),
+        arms: args.arms.into_iter().filter(|a| !a.is_empty()).collect(),
     };
     cowork_ros::shutdown::install();
     let taught = teach(&setup)?;
@@ -215,7 +230,8 @@ pub fn print(setup: &TeachSetup, t: &Taught) {
     );
     println!("segments ({}):", t.segments.len());
     for s in &t.segments {
-        println!("  {:>6.2} – {:>6.2} s  {:<8} {:<16} frame {}", s.span_s.0, s.span_s.1, s.kind, s.label, s.object);
+        let arm = if s.arm.is_empty() { String::new() } else { format!("{:<6} ", s.arm) };
+        println!("  {:>6.2} – {:>6.2} s  {arm}{:<8} {:<16} frame {}", s.span_s.0, s.span_s.1, s.kind, s.label, s.object);
     }
     println!("learned ({} subtasks):", t.learned.len());
     for l in &t.learned {
@@ -263,7 +279,10 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
     if !(s.rate.is_finite() && s.rate > 0.0) {
         bail!("--rate {} must be > 0", s.rate);
     }
-    for bin in ["lwr_sim", "robot_manager", "attentional_supervisor"] {
+    let imitation = !s.arms.is_empty();
+    let bins: &[&str] =
+        if imitation { &["lwr_sim", "robot_manager", "attentional_supervisor", "human_observer"] } else { &["lwr_sim", "robot_manager", "attentional_supervisor"] };
+    for &bin in bins {
         let p = s.bin_dir.join(bin);
         if !p.is_file() {
             bail!("{} missing; build with: cargo build --release --bins -p {bin}", p.display());
@@ -272,6 +291,15 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
     for (what, p) in [("--scene", &s.scene), ("--sim-params", &s.sim_params)] {
         if !p.is_file() {
             bail!("{what} {}: no such file", p.display());
+        }
+    }
+    if imitation {
+        let scene = cowork_sim::Scene::from_file(&s.scene).with_context(|| format!("--scene {}", s.scene.display()))?;
+        let names: Vec<String> = scene.arm_setups().iter().map(|a| a.name.clone()).collect();
+        for arm in &s.arms {
+            if !names.contains(arm) {
+                bail!("--arms: the scene {} has no arm `{arm}` (its arms: {})", s.scene.display(), if names.is_empty() { "none named".into() } else { names.join(", ") });
+            }
         }
     }
     let ltm_in = Ltm::load(&s.ltm).with_context(|| format!("the LTM {}", s.ltm.display()))?;
@@ -285,9 +313,16 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
     if let Some(dir) = s.ltm_out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     }
-    let db_file = s.database_dir.join("lwr.primitives.json");
-    if db_file.is_file() {
-        cowork_manager::Database::load(&db_file).with_context(|| format!("the database {}", db_file.display()))?;
+    // Each arm's manager keeps its own database (config/robot_manager.yaml's per-arm `robot`).
+    let db_files: Vec<PathBuf> = if imitation {
+        s.arms.iter().map(|a| s.database_dir.join(format!("lwr_{a}.primitives.json"))).collect()
+    } else {
+        vec![s.database_dir.join("lwr.primitives.json")]
+    };
+    for db_file in &db_files {
+        if db_file.is_file() {
+            cowork_manager::Database::load(db_file).with_context(|| format!("the database {}", db_file.display()))?;
+        }
     }
     let sim_params = s.logs.join("lwr_sim.teach.yaml");
     sim_params_without_camera(&s.sim_params, &sim_params)?;
@@ -296,7 +331,12 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         "cowork_teach",
         &NodeConfig { domain_id: Some(s.domain), use_sim_time: true, ..NodeConfig::default() },
     )?;
-    let robot = node.subscribe(&topics::ROBOT_STREAM)?;
+    let arm_namespaces: Vec<(String, String)> =
+        if imitation { s.arms.iter().map(|a| (a.clone(), format!("/{a}"))).collect() } else { vec![(String::new(), "/".into())] };
+    let robots = arm_namespaces
+        .iter()
+        .map(|(arm, ns)| Ok((arm.clone(), node.subscribe_in(&topics::ROBOT_STREAM, ns)?)))
+        .collect::<Result<Vec<_>>>()?;
     let wm = node.subscribe(&topics::WORKING_MEMORY)?;
     let feed = TeachingFeed::from_bags(&mut node, &s.bags)?;
     let bag_s: Vec<f64> = feed.bags().iter().map(|b| b.1).collect();
@@ -323,11 +363,33 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
             format!("{:.0}", feed_s + limit_s),
         ],
     )?;
-    g.spawn(
-        "robot_manager",
-        &s.bin_dir.join("robot_manager"),
-        &["--use-sim-time".into(), "--database-dir".into(), p(&s.database_dir), "--duration".into(), dur.clone()],
-    )?;
+    let managers: Vec<String> = if imitation { s.arms.iter().map(|a| format!("robot_manager_{a}")).collect() } else { vec!["robot_manager".into()] };
+    for ((_, ns), name) in arm_namespaces.iter().zip(&managers) {
+        let mut args = vec!["--use-sim-time".into(), "--database-dir".into(), p(&s.database_dir), "--duration".into(), dur.clone()];
+        if imitation {
+            args.extend(["--ros-args".into(), "-r".into(), format!("__ns:={ns}"), "--".into()]);
+        }
+        g.spawn(name, &s.bin_dir.join("robot_manager"), &args)?;
+    }
+    if imitation {
+        // In the first arm's namespace, as launch_scripts/graph.sh runs it: its parameter block
+        // there drives every arm (`retarget.arms`).
+        g.spawn(
+            "human_observer",
+            &s.bin_dir.join("human_observer"),
+            &[
+                "--use-sim-time".into(),
+                "--gestures".into(),
+                String::new(),
+                "--duration".into(),
+                dur.clone(),
+                "--ros-args".into(),
+                "-r".into(),
+                format!("__ns:={}", arm_namespaces[0].1),
+                "--".into(),
+            ],
+        )?;
+    }
     g.spawn(
         "attentional_supervisor",
         &s.bin_dir.join("attentional_supervisor"),
@@ -345,13 +407,17 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
     )?;
     let until = Instant::now() + cowork_ros::duration_s(s.startup_timeout_s);
     let mut heard_manager = false;
+    let mut heard = vec![false; robots.len()];
     let mut last_wm: Option<WorkingMemory> = None;
     loop {
         g.check_alive()?;
         if cowork_ros::shutdown::requested() {
             bail!("interrupted (Ctrl-C) before teaching started");
         }
-        heard_manager |= robot.take().is_some();
+        for (k, (_, robot)) in robots.iter().enumerate() {
+            heard[k] |= robot.take().is_some();
+        }
+        heard_manager = heard.iter().all(|h| *h);
         while let Some(m) = wm.take() {
             last_wm = Some(m);
         }
@@ -373,17 +439,24 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
     let wall = Instant::now();
     let mut segments = Vec::new();
     // The manager's /robot_stream stamp: how far it has processed the world (simulated s).
-    let collect = |g: &mut Graph, segments: &mut Vec<Segment>, last_wm: &mut Option<WorkingMemory>| -> Result<Option<f64>, String> {
-        let mut newest = None;
-        while let Some(r) = robot.take() {
-            newest = Some(r.header.stamp.to_secs_f64());
-            segments.extend(r.segments.iter().map(|seg| Segment {
-                label: seg.label.clone(),
-                kind: kind(seg.kind),
-                object: seg.object_name.clone(),
-                span_s: (seg.start_time.to_secs_f64() - t0, seg.end_time.to_secs_f64() - t0),
-            }));
+    // Per arm, the newest /robot_stream stamp; the slowest manager paces the teacher.
+    let mut stamps: Vec<Option<f64>> = vec![None; robots.len()];
+    let mut collect = |g: &mut Graph, segments: &mut Vec<Segment>, last_wm: &mut Option<WorkingMemory>| -> Result<Option<f64>, String> {
+        let mut any = false;
+        for (k, (arm, robot)) in robots.iter().enumerate() {
+            while let Some(r) = robot.take() {
+                stamps[k] = Some(r.header.stamp.to_secs_f64());
+                any = true;
+                segments.extend(r.segments.iter().map(|seg| Segment {
+                    arm: arm.clone(),
+                    label: seg.label.clone(),
+                    kind: kind(seg.kind),
+                    object: seg.object_name.clone(),
+                    span_s: (seg.start_time.to_secs_f64() - t0, seg.end_time.to_secs_f64() - t0),
+                }));
+            }
         }
+        let newest = if any { stamps.iter().copied().collect::<Option<Vec<f64>>>().map(|v| v.into_iter().fold(f64::INFINITY, f64::min)) } else { None };
         while let Some(m) = wm.take() {
             *last_wm = Some(m);
         }
@@ -412,8 +485,10 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         std::thread::sleep(Duration::from_millis(10));
     }
     let wall_s = wall.elapsed().as_secs_f64();
-    let warnings: Vec<String> = ["robot_manager", "attentional_supervisor"]
+    let warnings: Vec<String> = managers
         .iter()
+        .map(String::as_str)
+        .chain(["attentional_supervisor"])
         .flat_map(|n| {
             g.log(n)
                 .lines()
@@ -435,14 +510,10 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         )
     })?;
     let learned = learned_between(&ltm_in, &ltm_out);
-    let primitives = if db_file.is_file() {
-        cowork_manager::Database::load(&db_file)
-            .with_context(|| format!("the database {}", db_file.display()))?
-            .primitives
-            .len()
-    } else {
-        0
-    };
+    let mut primitives = 0;
+    for db_file in db_files.iter().filter(|f| f.is_file()) {
+        primitives += cowork_manager::Database::load(db_file).with_context(|| format!("the database {}", db_file.display()))?.primitives.len();
+    }
     let (true_variables, task_done) = match &last_wm {
         Some(w) => (w.true_variables.clone(), w.nodes.iter().any(|n| compact(&n.name) == compact(&s.task) && n.done)),
         None => (Vec::new(), false),

@@ -676,6 +676,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         logs: dir.join("teach"),
         startup_timeout_s: args.startup_timeout,
         domain: cowork_graph::private_domain(120, 100, 2 * k),
+        arms: Vec::new(),
     };
     let taught = teach(&setup)?;
     let segments: Vec<String> = taught.segments.iter().map(|s| s.label.clone()).collect();
