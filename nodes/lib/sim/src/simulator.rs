@@ -191,6 +191,24 @@ impl ArmHulls {
             .fold(f64::INFINITY, f64::min)
     }
 
+    /// The lowest point (z in the base pose's frame, m) of the hulls of links `from_link`
+    /// onwards of one arm at base pose `base` with link poses `poses` (its base frame), and
+    /// the link it belongs to; `None` when none of those links has a hull. With `from_link` = 2
+    /// the base and the first link, which stand on their mount, are left out: an arm–table
+    /// contact is a lower link below the table top.
+    pub fn lowest_z(&self, base: &Isometry3<f64>, poses: &LinkPoses, from_link: usize) -> Option<(f64, usize)> {
+        self.hulls
+            .iter()
+            .enumerate()
+            .skip(from_link)
+            .filter_map(|(l, h)| {
+                let pose = base * poses.get(l);
+                let z = h.as_ref()?.points().iter().map(|p| (pose * p).z).fold(f64::INFINITY, f64::min);
+                Some((z, l))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
     /// The closest pair of links of two different arms, each arm given by its base pose (a
     /// common frame) and its link poses (its base frame); `None` with fewer than two arms.
     /// Link pairs whose bounding boxes are farther apart than the closest pair found so far
