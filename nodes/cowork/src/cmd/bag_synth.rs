@@ -11,7 +11,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Arguments of `cowork bag synth`.
 #[derive(Debug, Args)]
 pub struct SynthArgs {
-    /// Scenario: kinesthetic-pour, static-scene, stacking-human or gestures.
+    /// Scenario: kinesthetic-pour, kinesthetic-coffee, kinesthetic-spoon, kinesthetic-tea,
+    /// static-scene, stacking-human, gestures, pizza-demo-left or pizza-demo-right.
     pub scenario: String,
     /// The MCAP file to write (overwritten).
     #[arg(short, long)]

@@ -21,6 +21,7 @@ mod error;
 pub mod gestures;
 pub mod kitchen;
 mod plan;
+pub mod pizza;
 pub mod pour;
 mod replay;
 mod runner;

@@ -8,7 +8,7 @@ use cowork_sim::{Scene, SimParams, Simulator};
 
 use crate::depth::DepthRig;
 use crate::runner::Runner;
-use crate::{Result, SynthError, gestures, kitchen, pour, stacking, static_scene};
+use crate::{Result, SynthError, gestures, kitchen, pizza, pour, stacking, static_scene};
 
 /// The scenario bags the synthesiser writes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -28,6 +28,10 @@ pub enum Scenario {
     KinestheticSpoon,
     /// Kinesthetic demonstration of add(tea): the tea box emptied into the cup ([`kitchen`]).
     KinestheticTea,
+    /// Imitation teaching of the whole pizza task by a person's left arm ([`pizza`]).
+    PizzaDemoLeft,
+    /// Imitation teaching of the whole pizza task by a person's right arm ([`pizza`]).
+    PizzaDemoRight,
 }
 
 impl Scenario {
@@ -40,6 +44,8 @@ impl Scenario {
         Scenario::KinestheticCoffee,
         Scenario::KinestheticSpoon,
         Scenario::KinestheticTea,
+        Scenario::PizzaDemoLeft,
+        Scenario::PizzaDemoRight,
     ];
 
     /// The CLI name.
@@ -52,6 +58,8 @@ impl Scenario {
             Scenario::KinestheticCoffee => "kinesthetic-coffee",
             Scenario::KinestheticSpoon => "kinesthetic-spoon",
             Scenario::KinestheticTea => "kinesthetic-tea",
+            Scenario::PizzaDemoLeft => "pizza-demo-left",
+            Scenario::PizzaDemoRight => "pizza-demo-right",
         }
     }
 
@@ -63,11 +71,24 @@ impl Scenario {
             | Scenario::KinestheticSpoon
             | Scenario::KinestheticTea => "kitchen.yaml",
             Scenario::StaticScene | Scenario::StackingHuman | Scenario::Gestures => "stacking.yaml",
+            Scenario::PizzaDemoLeft => pizza::DemoArm::Left.scene_file(),
+            Scenario::PizzaDemoRight => pizza::DemoArm::Right.scene_file(),
+        }
+    }
+
+    /// The demonstrating arm of an imitation-teaching scenario; `None` for the others.
+    pub fn pizza_arm(self) -> Option<pizza::DemoArm> {
+        match self {
+            Scenario::PizzaDemoLeft => Some(pizza::DemoArm::Left),
+            Scenario::PizzaDemoRight => Some(pizza::DemoArm::Right),
+            _ => None,
         }
     }
 
     /// Length of the bag when no `--duration` is given, s (for the people scenarios it depends
-    /// on the people drawn from `seed`).
+    /// on the people drawn from `seed`; for the pizza demonstrations it is the length of the
+    /// plan in the scene of `config/` under the working directory — [`synthesize`] plans in
+    /// its `config_dir`).
     pub fn default_duration_s(self, seed: u64) -> Result<f64> {
         Ok(match self {
             Scenario::KinestheticPour => pour::NATURAL_DURATION_S,
@@ -77,6 +98,10 @@ impl Scenario {
             Scenario::KinestheticCoffee => kitchen::COFFEE_DURATION_S,
             Scenario::KinestheticSpoon => kitchen::SPOON_DURATION_S,
             Scenario::KinestheticTea => kitchen::TEA_DURATION_S,
+            Scenario::PizzaDemoLeft | Scenario::PizzaDemoRight => {
+                let options = SynthOptions { seed, ..SynthOptions::default() };
+                pizza_plan(self, &options)?.1.duration_s
+            }
         })
     }
 }
@@ -274,6 +299,57 @@ fn check_duration(d: f64) -> Result<f64> {
     }
 }
 
+/// The simulator of a pizza demonstration's scene and its plan under `options`.
+fn pizza_plan(scenario: Scenario, options: &SynthOptions) -> Result<(Simulator, pizza::PizzaPlan)> {
+    let Some(arm) = scenario.pizza_arm() else {
+        return Err(SynthError::Plan { scenario: "synth", reason: format!("{scenario} is not an imitation-teaching demonstration") });
+    };
+    let sim = load_simulator(&options.config_dir, scenario.scene_file())?;
+    let plan = pizza::plan_demo(&sim, arm, &pizza::PizzaStyle::from_seed(options.seed))?;
+    Ok((sim, plan))
+}
+
+/// `pizza-demo-*`: skeletons + speech + `/clock` (no depth frames: the sensor is the Xsens
+/// suit; no joint states: the graph's `lwr_sim` moves the arm from the retargeted skeletons).
+fn synthesize_pizza(scenario: Scenario, options: &SynthOptions, path: &Path, progress: &mut dyn FnMut(f64)) -> Result<SynthSummary> {
+    if let Some(scene) = &options.start_scene {
+        return Err(SynthError::BadOption {
+            option: "start_scene",
+            value: scene.display().to_string(),
+            reason: format!("{scenario} is not a kinesthetic demonstration"),
+        });
+    }
+    if !options.after.is_empty() {
+        return Err(SynthError::BadOption {
+            option: "after",
+            value: options.after.iter().map(|s| s.name()).collect::<Vec<_>>().join(","),
+            reason: format!("{scenario} is not a kinesthetic demonstration"),
+        });
+    }
+    let (sim, plan) = pizza_plan(scenario, options)?;
+    let duration = match options.duration_s {
+        Some(d) => {
+            let d = check_duration(d)?;
+            if d < plan.duration_s {
+                return Err(SynthError::BadOption {
+                    option: "--duration",
+                    value: d.to_string(),
+                    reason: format!(
+                        "{scenario} with seed {} lasts {:.3} s; a longer bag keeps the person still after `done`",
+                        options.seed, plan.duration_s
+                    ),
+                });
+            }
+            d
+        }
+        None => plan.duration_s,
+    };
+    let counts = pizza::write_demo(&sim, &plan, path, duration, progress)?;
+    progress(1.0);
+    let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    Ok(SynthSummary { scenario, path: path.to_owned(), duration_s: duration, counts, bytes })
+}
+
 /// Writes the bag of `scenario` at `path`. `progress` is called with the fraction done (0..1).
 pub fn synthesize(
     scenario: Scenario,
@@ -281,6 +357,9 @@ pub fn synthesize(
     path: &Path,
     progress: &mut dyn FnMut(f64),
 ) -> Result<SynthSummary> {
+    if scenario.pizza_arm().is_some() {
+        return synthesize_pizza(scenario, options, path, progress);
+    }
     let duration = match options.duration_s {
         Some(d) => check_duration(d)?,
         None => scenario.default_duration_s(options.seed)?,
@@ -351,6 +430,9 @@ pub fn synthesize(
             let mut run = Runner::new(sim, path, duration, progress)?;
             stacking::run_stacking(&mut run, &mut depth, options.seed, options.noise)?;
             run.streams.finish()?
+        }
+        Scenario::PizzaDemoLeft | Scenario::PizzaDemoRight => {
+            return Err(SynthError::Plan { scenario: "synth", reason: format!("{scenario} is written by synthesize_pizza") });
         }
         Scenario::Gestures => {
             let set = gestures::gesture_set(options.seed, options.duration_s)?;
