@@ -32,7 +32,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 /// Arguments of `cowork experiment`.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5), coffee-cooperative (Fig. 5.21), coffee-closed-bottle (Fig. 5.22), tea-reuse (Table 5.6), refine-goal (Sec. 4.1.3, Fig. 4.4), refine-elbow (Sec. 4.1.3, Fig. 4.5-4.7).
+    /// Experiment: stacking-hri, gestures-hri (Sec. 5.1.3), pouring (Table 5.4), coffee (Table 5.5), coffee-cooperative (Fig. 5.21), coffee-closed-bottle (Fig. 5.22), tea-reuse (Table 5.6), pizza --arms uni|dual (Table 5.7), refine-goal (Sec. 4.1.3, Fig. 4.4), refine-elbow (Sec. 4.1.3, Fig. 4.5-4.7).
     pub name: String,
     /// Trials (seeds seed, seed + 1, ...).
     #[arg(long, default_value_t = 1)]
@@ -100,6 +100,10 @@ pub struct ExperimentArgs {
     /// Wall-clock seconds to wait for every node to be up.
     #[arg(long, default_value_t = 90.0)]
     pub startup_timeout: f64,
+    /// pizza: `uni` (one arm does the whole task, the ingredients in its area) or `dual` (both
+    /// arms, the ingredients in both areas).
+    #[arg(long)]
+    pub arms: Option<String>,
 }
 
 /// A DDS domain of our own for trial `k` (process id based, so parallel runs rarely meet).
@@ -109,6 +113,12 @@ fn private_domain(k: u32) -> u16 {
 
 /// Runs the experiment and writes what was asked.
 pub fn run(args: ExperimentArgs) -> Result<()> {
+    if args.name == super::pizza::NAME {
+        return super::pizza::run(&args);
+    }
+    if args.arms.is_some() {
+        bail!("--arms is for the pizza experiment only");
+    }
     if super::kitchen::NAMES.contains(&args.name.as_str()) {
         return super::kitchen::run(&args);
     }
@@ -117,7 +127,7 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     }
     if !cowork_experiment::plan::NAMES.contains(&args.name.as_str()) {
         let known: Vec<&str> =
-            cowork_experiment::plan::NAMES.iter().chain(&super::kitchen::NAMES).chain(&super::refine::NAMES).copied().collect();
+            cowork_experiment::plan::NAMES.iter().chain(&super::kitchen::NAMES).chain(&super::refine::NAMES).chain(&[super::pizza::NAME]).copied().collect();
         bail!("unknown experiment `{}`; known: {}", args.name, known.join(", "));
     }
     if args.trials == 0 {

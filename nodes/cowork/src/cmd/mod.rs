@@ -8,6 +8,7 @@ pub mod bridge;
 pub mod bridge_stats;
 pub mod experiment;
 pub mod kitchen;
+pub mod pizza;
 pub mod fded;
 pub mod keystore;
 pub mod learn;

@@ -338,7 +338,16 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         .map(|(arm, ns)| Ok((arm.clone(), node.subscribe_in(&topics::ROBOT_STREAM, ns)?)))
         .collect::<Result<Vec<_>>>()?;
     let wm = node.subscribe(&topics::WORKING_MEMORY)?;
-    let feed = TeachingFeed::from_bags(&mut node, &s.bags)?;
+    // With named arms the clock-carrying wrenches go to the first arm (the simulator reads each
+    // arm's `/external_wrench` in its namespace).
+    let feed = TeachingFeed::from_bags_in(&mut node, &s.bags, &arm_namespaces[0].1)?;
+    if imitation != feed.is_imitation() {
+        bail!(
+            "{}: --arms teaches by imitation (Xsens skeletons, `cowork bag synth pizza-demo-left`), without --arms kinesthetically (wrenches); the bags are {}",
+            s.bags.iter().map(|b| b.display().to_string()).collect::<Vec<_>>().join(", "),
+            if feed.is_imitation() { "an imitation" } else { "kinesthetic" }
+        );
+    }
     let bag_s: Vec<f64> = feed.bags().iter().map(|b| b.1).collect();
     let demonstration_s = bag_s.iter().sum();
     let feed_s = feed.duration_s();
@@ -406,7 +415,6 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         ],
     )?;
     let until = Instant::now() + cowork_ros::duration_s(s.startup_timeout_s);
-    let mut heard_manager = false;
     let mut heard = vec![false; robots.len()];
     let mut last_wm: Option<WorkingMemory> = None;
     loop {
@@ -417,7 +425,7 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         for (k, (_, robot)) in robots.iter().enumerate() {
             heard[k] |= robot.take().is_some();
         }
-        heard_manager = heard.iter().all(|h| *h);
+        let heard_manager = heard.iter().all(|h| *h);
         while let Some(m) = wm.take() {
             last_wm = Some(m);
         }
@@ -426,9 +434,10 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         }
         if Instant::now() > until {
             bail!(
-                "the teaching graph was not up after {} s (manager on /robot_stream: {heard_manager}, supervisor on /supervisor/working_memory: {}, wrench/speech readers matched: {}); logs in {}",
+                "the teaching graph was not up after {} s (manager on /robot_stream: {heard_manager}, supervisor on /supervisor/working_memory: {}, wrench/speech{} readers matched: {}); logs in {}",
                 s.startup_timeout_s,
                 last_wm.is_some(),
+                if imitation { "/skeleton" } else { "" },
                 feed.matched(&node, 1, 2),
                 s.logs.display()
             );

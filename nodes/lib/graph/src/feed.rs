@@ -128,6 +128,14 @@ impl TeachingFeed {
     /// `done` but the last and every `teach` but the first are left out — per arm for words
     /// addressed to one (`left: teach`), so a session per arm stays one.
     pub fn from_bags<P: AsRef<Path>>(node: &mut RosNode, bags: &[P]) -> Result<Self> {
+        Self::from_bags_in(node, bags, "/")
+    }
+
+    /// As [`from_bags`](Self::from_bags), the wrenches (kinesthetic: the teacher's; by
+    /// imitation: the zero wrenches that carry the clock between and after the skeletons) on
+    /// `/external_wrench` in `namespace` (`/left` for a graph with named arms, where the
+    /// simulator reads each arm's).
+    pub fn from_bags_in<P: AsRef<Path>>(node: &mut RosNode, bags: &[P], namespace: &str) -> Result<Self> {
         let mut items = Vec::new();
         let mut spans = Vec::new();
         let mut offset = 0.0;
@@ -163,7 +171,7 @@ impl TeachingFeed {
         Ok(Self {
             items,
             bags: spans,
-            wrench: node.publisher("/external_wrench", &q).map_err(dds("/external_wrench"))?,
+            wrench: node.publisher(&cowork_msgs::topics::EXTERNAL_WRENCH.name_in(namespace), &q).map_err(dds("/external_wrench"))?,
             skeleton: node.publisher("/human/skeleton", &q).map_err(dds("/human/skeleton"))?,
             speech: node.publisher("/speech_command", &q).map_err(dds("/speech_command"))?,
             imitation,
