@@ -81,6 +81,7 @@ fn foa(prefix: &str, n: u32, object: &str, offset: [f64; 3], tool_down: UnitQuat
         orientation_dmp: None,
         linear_gain: Some(2.0),
         gripper: None,
+        home: None,
         source: cowork_manager::Source { demonstration: "two_arms_supervised".into(), start_s: 0.0, end_s: 1.0 },
         samples: 2,
         created_unix_s: 0,

@@ -134,6 +134,10 @@ pub struct PizzaTrial {
     pub failed_actions: Vec<String>,
     /// Actions each arm executed.
     pub actions: BTreeMap<String, u32>,
+    /// Simulated time of the first action's start, s.
+    pub started_at_s: Option<f64>,
+    /// Joint states checked for contacts (both arms).
+    pub joint_states_checked: u64,
     /// Wall time, s.
     pub wall_s: f64,
 }
@@ -357,7 +361,11 @@ impl Watch {
             }
         }
         for (arm, sub) in self.joints.iter().enumerate() {
+            let mut newest = None;
             while let Some(j) = sub.take() {
+                newest = Some(j);
+            }
+            if let Some(j) = newest {
                 self.judge.on_joints(arm, &j);
             }
         }
@@ -399,6 +407,8 @@ struct PizzaJudge {
     lowest_z: Option<f64>,
     contacts: u32,
     in_contact: bool,
+    /// Joint states checked.
+    judged_joints: u64,
 }
 
 impl PizzaJudge {
@@ -431,6 +441,7 @@ impl PizzaJudge {
             lowest_z: None,
             contacts: 0,
             in_contact: false,
+            judged_joints: 0,
         })
     }
 
@@ -472,12 +483,16 @@ impl PizzaJudge {
         }
     }
 
+    /// The newest joint state of arm `arm` (the runner hands over only the newest of each
+    /// batch: the checks run at the runner's pace, some 100–250 Hz of simulated time, not at
+    /// the simulator's 1 kHz).
     fn on_joints(&mut self, arm: usize, j: &JointState) {
         let mut q = JointVector::zeros();
         if cowork_ros::joint_positions(self.model.joint_names(), j, q.as_mut_slice()).is_err() {
             return;
         }
         self.joints[arm] = Some(q);
+        self.judged_joints += 1;
         self.model.forward_kinematics(&q, &mut self.poses[arm]);
         if let Some((z, _)) = self.hulls.lowest_z(&self.bases[arm], &self.poses[arm], 2) {
             let above = z - self.table_z;
@@ -586,7 +601,7 @@ fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir:
         std::fs::create_dir_all(rec).with_context(|| format!("creating {}", rec.display()))?;
         let bag = rec.join(format!("pizza-{area}-{seed}.mcap"));
         let me = std::env::current_exe().context("locating the cowork binary for the recorder")?;
-        g.spawn("recorder", &me, &["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), dur.clone()])?;
+        g.spawn("recorder", &me, &["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), format!("{:.0}", wall_limit + 120.0)])?;
     }
     let bin = |b: &str| args.bin_dir.join(b);
     let owned = |v: &[&str]| v.iter().map(|a| (*a).to_owned()).collect::<Vec<String>>();
@@ -697,6 +712,8 @@ fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir:
         lowest_link_z_m: watch.judge.lowest_z,
         failed_actions: watch.events.iter().filter(|e| e.4).map(|e| format!("{}: {}: {}", e.1, e.2, e.5)).collect(),
         actions,
+        started_at_s: watch.t_start,
+        joint_states_checked: watch.judge.judged_joints,
         wall_s: wall.elapsed().as_secs_f64(),
     })
 }

@@ -206,6 +206,9 @@ pub struct Manager {
     /// Object (task name) of the last near-object action started: the one a following
     /// `gripper(close)` closes on.
     last_noa_object: Option<String>,
+    /// The object the last executed `close` took and where it stood then (base frame): the
+    /// frame of a FOA that puts it back ([`crate::Primitive::home`]).
+    grasped_at: Option<(String, Isometry3<f64>)>,
     /// Time of the input being handled, s.
     now_t: f64,
     /// The last motion command, until the controller reports on it (or a newer one).
@@ -261,6 +264,7 @@ impl Manager {
             notes: Vec::new(),
             learned: Vec::new(),
             last_noa_object: None,
+            grasped_at: None,
             now_t: 0.0,
             unacked: None,
             controller_heard: false,
@@ -683,13 +687,33 @@ impl Manager {
                 Self::report(out, &run, true, false, String::new());
                 return;
             }
+            if cmd == GripperCommand::Close
+                && let Some(o) = world.object(&run.object)
+            {
+                self.grasped_at = Some((run.object.clone(), o.pose));
+            }
             self.turns.clear();
             out.push(Output::Gripper(cmd));
             Self::report(out, &run, false, false, String::new());
             self.current = Some(run);
             return;
         }
-        let pose = if run.object == WORLD {
+        let home = run.primitive.as_ref().and_then(|p| p.home.clone().map(|h| (h, p.taught_object_pose.to_isometry())));
+        let pose = if let Some((home, taught)) = home {
+            match self.grasped_at.as_ref().filter(|(n, _)| *n == home) {
+                Some((_, stood)) => *stood,
+                None => {
+                    out.push(Output::Warn(format!(
+                        "{}: puts {home} back where it stood when grasped, but no grasp of {home} was executed: where it stood when taught",
+                        run.label
+                    )));
+                    match taught {
+                        Some(t) => t,
+                        None => return self.fail(&run, format!("the taught pose of {home} is not a rotation"), out),
+                    }
+                }
+            }
+        } else if run.object == WORLD {
             Isometry3::identity()
         } else {
             match world.object(&run.object) {

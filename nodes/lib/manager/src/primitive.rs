@@ -85,6 +85,11 @@ pub struct Primitive {
     /// Gripper action: the command.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gripper: Option<GripperCommand>,
+    /// A FOA that puts this object back ([`Segment::home`]): `goal` is relative to where the
+    /// object stood when it was grasped (`taught_object_pose` at teaching), and executed
+    /// relative to where it stood when the execution grasped it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub home: Option<String>,
     /// Where it was taught.
     pub source: Source,
     /// Samples in the segment.
@@ -138,6 +143,7 @@ impl Primitive {
             orientation_dmp: None,
             linear_gain: None,
             gripper: seg.gripper,
+            home: seg.home.clone(),
             source: Source { demonstration: demonstration.to_owned(), start_s: seg.t_start, end_s: seg.t_end },
             samples: seg.samples.len(),
             created_unix_s,

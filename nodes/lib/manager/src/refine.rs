@@ -293,6 +293,7 @@ mod tests {
             orientation_dmp: None,
             linear_gain: Some(3.0),
             gripper: None,
+            home: None,
             source: crate::primitive::Source { demonstration: String::new(), start_s: 0.0, end_s: 1.0 },
             samples: 100,
             created_unix_s: 0,

@@ -84,6 +84,11 @@ pub struct Segment {
     pub frame: Isometry3<f64>,
     /// The command of a gripper segment.
     pub gripper: Option<GripperCommand>,
+    /// A FOA towards the world that ends where the teacher let go of this object, which was
+    /// grasped in the same demonstration: putting it back. `frame` is where the object stood
+    /// when it was grasped, so the goal is learned relative to that spot (executed: where the
+    /// object stood when this execution grasped it).
+    pub home: Option<String>,
 }
 
 impl Segment {
@@ -102,6 +107,10 @@ pub struct Note {
     pub text: String,
 }
 
+/// An object let go within this distance (horizontal, m) of where it stood when grasped was
+/// put back: the FOA that carried it there is learned relative to that spot ([`Segment::home`]).
+pub const HOME_RADIUS_M: f64 = 0.05;
+
 /// The online segmenter.
 #[derive(Debug, Clone)]
 pub struct Segmenter {
@@ -117,6 +126,8 @@ pub struct Segmenter {
     last_pose: Vec<(String, Isometry3<f64>)>,
     both_noted: Option<(String, String)>,
     hidden_noted: bool,
+    /// The object the last `gripper close` took and where it stood then (task name, pose).
+    grasped: Option<(String, Isometry3<f64>)>,
     /// A gripper command whose effect the world has not reported yet (command, time s).
     pending_gripper: Option<(GripperCommand, f64)>,
 }
@@ -139,6 +150,7 @@ impl Segmenter {
             last_pose: Vec::new(),
             both_noted: None,
             hidden_noted: false,
+            grasped: None,
             pending_gripper: None,
         }
     }
@@ -165,6 +177,7 @@ impl Segmenter {
         self.both_noted = None;
         self.hidden_noted = false;
         self.pending_gripper = None;
+        self.grasped = None;
         self.remember(world);
         let mut notes = Vec::new();
         self.inside = self.sphere(world, &mut notes);
@@ -278,15 +291,30 @@ impl Segmenter {
             self.remember(world);
             self.samples.push((world.t, world.tool));
         }
-        match self.inside.clone() {
-            Some(o) => self.close(ActionKind::Noa, &o, world.t, out, notes),
-            None => self.close(ActionKind::Foa, WORLD, world.t, out, notes),
-        }
         let object = match (object, cmd) {
             (Some(o), _) => o.to_owned(),
             (None, GripperCommand::Close) => self.inside.clone().unwrap_or_else(|| WORLD.to_owned()),
             (None, GripperCommand::Open) => world.held.clone().unwrap_or_else(|| WORLD.to_owned()),
         };
+        let n = out.len();
+        match self.inside.clone() {
+            Some(o) => self.close(ActionKind::Noa, &o, world.t, out, notes),
+            None => self.close(ActionKind::Foa, WORLD, world.t, out, notes),
+        }
+        // Letting go, in free space, of the object grasped last within HOME_RADIUS_M of where
+        // it stood: the FOA just closed puts it back there, relative to that spot.
+        let released_at = world.object(&object).map(|o| o.pose.translation.vector);
+        if cmd == GripperCommand::Open
+            && let Some((home, pose)) = self.grasped.take().filter(|(h, _)| *h == object)
+            && released_at.is_some_and(|r| (r.xy() - pose.translation.vector.xy()).norm() <= HOME_RADIUS_M)
+            && let Some(seg) = out[n..].iter_mut().find(|s| s.kind == ActionKind::Foa && s.object == WORLD)
+        {
+            seg.frame = pose;
+            seg.home = Some(home);
+        }
+        if cmd == GripperCommand::Close && object != WORLD {
+            self.grasped = Some((object.clone(), self.frame_of(&object)));
+        }
         self.pending_gripper = Some((cmd, world.t));
         let index = self.take_index();
         let id = format!("{}{}{index}", self.label_prefix, cmd.word());
@@ -301,6 +329,7 @@ impl Segmenter {
             t_end: world.t,
             samples: Vec::new(),
             gripper: Some(cmd),
+            home: None,
         });
     }
 
@@ -361,6 +390,7 @@ impl Segmenter {
             t_end: last.0,
             samples,
             gripper: None,
+            home: None,
         });
     }
 }

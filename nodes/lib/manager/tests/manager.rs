@@ -400,3 +400,47 @@ fn the_target_object_is_the_running_noas_and_the_grasps_after_it() {
     d.say("stop");
     assert_eq!(d.manager.target_object(), None, "held: nothing is approached");
 }
+
+#[test]
+fn an_object_put_back_where_it_stood_is_put_back_where_it_stands_when_executed() {
+    let mut d = Driver::new(Manager::new(
+        ManagerConfig { noa_execution: cowork_manager::NoaExecution::Controller, ..ManagerConfig::default() },
+        Database::new("lwr"),
+    ));
+    // Take the bottle, lift it, carry it away and back, and put it down where it stood.
+    d.say("teach");
+    d.wait(0.5);
+    let b = d.world.objects[0].1.translation.vector;
+    d.move_to(at(b.x, b.y, 0.40), 2.0);
+    d.move_to(at(b.x, b.y, 0.24), 1.5);
+    d.say("gripper close");
+    d.wait(0.3);
+    d.move_to(at(b.x, b.y, 0.42), 1.5);
+    d.move_to(at(b.x + 0.2, b.y - 0.1, 0.42), 2.0);
+    d.move_to(at(b.x, b.y, 0.40), 2.0);
+    d.move_to(at(b.x + 0.01, b.y, 0.24), 1.5);
+    d.say("gripper open");
+    d.wait(0.3);
+    d.move_to(at(b.x, b.y, 0.40), 1.0);
+    d.say("done");
+    let labels = segments(&d.take());
+    let put_back = labels.iter().find(|l| l.starts_with("foa") && l.ends_with("(world)")).expect("a FOA to the world").clone();
+    let id = put_back.split('(').next().expect("id").to_owned();
+    let p = d.manager.database().get(&id).expect("learned").clone();
+    assert_eq!(p.home.as_deref(), Some("water"), "{labels:?}");
+    let g = p.goal.position;
+    assert!((g[0] - 0.01).abs() < 0.005 && g[1].abs() < 0.005 && (g[2] - 0.13).abs() < 0.01, "goal relative to where it stood: {g:?}");
+    // Executed with the bottle elsewhere: grasped there, put back there.
+    d.world.objects[0].1 = nalgebra::Isometry3::translation(0.30, 0.10, 0.11);
+    d.world.step(0.01);
+    d.feed_world();
+    let close = labels.iter().find(|l| l.starts_with("close")).expect("close").clone();
+    run_action(&mut d, 20, &close);
+    let out = run_action(&mut d, 21, &put_back);
+    let order = orders(&out).first().cloned().expect("a motion order");
+    let Some(MotionPlan::Linear { goal, .. }) = &order.plan else { panic!("{order:?}") };
+    assert!((goal.translation.vector - Vector3::new(0.31, 0.10, 0.24)).norm() < 0.01, "goal {goal:?}");
+    // The kitchen pour puts the bottle 15 cm from where it stood: that place stays in the world.
+    let pour = taught();
+    assert!(pour.manager.database().get("foa6").expect("foa6").home.is_none());
+}
