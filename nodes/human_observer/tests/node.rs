@@ -258,6 +258,17 @@ fn an_xsens_demonstrator_drives_each_arm_with_its_own_arm_and_a_bystander_does_n
     let right = wrist(&last[1].1.position, &mut poses);
     assert!(left.x > 0.3, "left wrist {left}");
     assert!(left.x > right.x + 0.2, "left {left} right {right}");
+    // A suit frame missing the left arm's segments: refused naming the field, no target for
+    // any arm (the arms stop within the simulator's command timeout).
+    let mut broken = suit(&demonstrator, 2.01, "world");
+    let keep: Vec<usize> = (0..broken.segment_names.len()).filter(|&i| !broken.segment_names[i].starts_with("left_")).collect();
+    broken.segment_names = keep.iter().map(|&i| broken.segment_names[i].clone()).collect();
+    broken.poses = keep.iter().map(|&i| broken.poses[i].clone()).collect();
+    broken.velocities.clear();
+    let out = node.on_demonstrator(&broken);
+    assert!(out.targets.is_empty(), "{:?}", out.targets);
+    assert_eq!(out.warnings.len(), 2, "{:?}", out.warnings);
+    assert!(out.warnings[0].message.contains("not retargeted onto arm \"left\""), "{}", out.warnings[0].message);
     // A bystander seen by the depth camera, and a second suit, drive nothing.
     let bystander = Performer::new(2, BodySize::MEDIUM, Stance::new(1.0, 0.0, 3.14), 2).expect("p");
     let out = node.on_demonstrator(&skeleton(&bystander, 2.0));
