@@ -60,9 +60,14 @@ const ARMS: [&str; 2] = ["left", "right"];
 /// for the right arm.
 const LEFT_AREA: ((f64, f64), (f64, f64)) = ((0.27, 0.50), (0.29, 0.52));
 
-/// Two ingredients stand at least this far apart (centres, m): outside each other's 0.12 m
-/// proximity sphere with the tool at either.
-const SPACING_M: f64 = 0.15;
+/// No ingredient stands here (world x, |y| ranges, m): under the forearm of the arm that pours
+/// over the pizza. The controllers avoid obstacles (the thesis's pizza runs did not), and a
+/// bottle there keeps the forearm from coming down to the pour (uni seed 1, 2026-12-05: the
+/// oil at (0.50, 0.32) held the left forearm 6 cm above it for 120 s).
+const UNDER_THE_POUR: ((f64, f64), (f64, f64)) = ((0.40, 0.60), (0.0, 0.39));
+
+/// Two ingredients stand at least this far apart (centres, m).
+const SPACING_M: f64 = 0.13;
 
 /// An ingredient is "over the pizza" with its centre this close to the pizza's in x-y, m.
 pub const OVER_PIZZA_RADIUS_M: f64 = 0.14;
@@ -323,20 +328,25 @@ pub fn ingredient_positions(area: &str, seed: u64) -> Result<BTreeMap<String, [f
         }
     }
     let ((x0, x1), (y0, y1)) = LEFT_AREA;
-    let mut out: BTreeMap<String, [f64; 2]> = BTreeMap::new();
-    for (name, side) in INGREDIENTS.iter().zip(sides) {
-        let mut found = None;
-        for _ in 0..2000 {
-            let p = [d.uniform(x0, x1), side * d.uniform(y0, y1)];
-            if out.values().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= SPACING_M) {
-                found = Some(p);
-                break;
+    let ((ux0, ux1), (uy0, uy1)) = UNDER_THE_POUR;
+    // Whole sets are drawn again until one fits (a greedy draw can corner the last bottle).
+    for _ in 0..1000 {
+        let mut out: BTreeMap<String, [f64; 2]> = BTreeMap::new();
+        for (name, side) in INGREDIENTS.iter().zip(&sides) {
+            for _ in 0..200 {
+                let p = [d.uniform(x0, x1), side * d.uniform(y0, y1)];
+                let under = (ux0..=ux1).contains(&p[0]) && (uy0..=uy1).contains(&p[1].abs());
+                if !under && out.values().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= SPACING_M) {
+                    out.insert((*name).to_owned(), p);
+                    break;
+                }
             }
         }
-        let Some(p) = found else { bail!("no position {SPACING_M} m clear of the others for {name} (seed {seed})") };
-        out.insert((*name).to_owned(), p);
+        if out.len() == INGREDIENTS.len() {
+            return Ok(out);
+        }
     }
-    Ok(out)
+    bail!("no positions {SPACING_M} m apart found for the ingredients in area {area} (seed {seed})")
 }
 
 /// What the runner reads from the two-arm graph while the task executes, and judges.
@@ -780,6 +790,7 @@ mod tests {
                     "right" => assert!(ys.iter().all(|y| *y < -0.2)),
                     _ => assert_eq!(ys.iter().filter(|y| **y > 0.2).count(), 2, "{p:?}"),
                 }
+                assert!(p.values().all(|v| !(v[0] >= 0.40 && v[1].abs() <= 0.39)), "{p:?}");
                 let v: Vec<&[f64; 2]> = p.values().collect();
                 for i in 0..v.len() {
                     for j in i + 1..v.len() {
