@@ -41,6 +41,7 @@ use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
 use super::experiment::ExperimentArgs;
+use super::kitchen::SubtaskTime;
 use super::teach::{Learned, TeachSetup, teach};
 
 /// The experiment's name.
@@ -81,15 +82,6 @@ pub const UPRIGHT_DEG: f64 = 10.0;
 const CENTRAL: ((f64, f64), (f64, f64)) = ((0.2, 0.7), (-0.2, 0.2));
 /// Link hulls closer than this are an arm–arm contact, m.
 const CONTACT_M: f64 = 0.002;
-
-/// One subtask's time.
-#[derive(Debug, Clone, Serialize)]
-pub struct SubtaskTime {
-    /// First action started → last action done, simulated s (`None` unless all were done).
-    pub time_s: Option<f64>,
-    /// Its actions all done.
-    pub success: bool,
-}
 
 /// An ingredient in one trial.
 #[derive(Debug, Clone, Default, Serialize)]
