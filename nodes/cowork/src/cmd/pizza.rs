@@ -30,7 +30,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use cowork_graph::Graph;
-use cowork_msgs::msg::{RobotStream, WorldState};
+use cowork_msgs::msg::{MotionStatus, RobotStream, WorldState};
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::topics::{self, Delivery};
 use cowork_robot::{JointVector, LinkPoses, RobotModel};
@@ -346,6 +346,9 @@ struct Watch {
     worlds: Vec<Subscription<WorldState>>,
     joints: Vec<Subscription<JointState>>,
     robots: Vec<Subscription<RobotStream>>,
+    statuses: Vec<Subscription<MotionStatus>>,
+    /// Per arm, the controller's last non-empty status reason (why a motion is slow or held).
+    reasons: [String; 2],
     judge: PizzaJudge,
     /// (sim t, arm, label, done, failed, reason) of the managers' action events.
     events: Vec<(f64, String, String, bool, bool, String)>,
@@ -371,6 +374,13 @@ impl Watch {
                 self.judge.on_joints(arm, &j);
             }
         }
+        for (arm, sub) in self.statuses.iter().enumerate() {
+            while let Some(s) = sub.take() {
+                if !s.reason.is_empty() {
+                    self.reasons[arm] = s.reason;
+                }
+            }
+        }
         for (arm, sub) in self.robots.iter().enumerate() {
             while let Some(r) = sub.take() {
                 let t = r.header.stamp.to_secs_f64();
@@ -378,7 +388,8 @@ impl Watch {
                     if self.t_start.is_none() && !e.done && !e.failed {
                         self.t_start = Some(t);
                     }
-                    self.events.push((t, ARMS[arm].to_owned(), e.label.clone(), e.done, e.failed, e.reason.clone()));
+                    let reason = if e.failed { format!("{} (controller's last word: {})", e.reason, self.reasons[arm]) } else { e.reason.clone() };
+                    self.events.push((t, ARMS[arm].to_owned(), e.label.clone(), e.done, e.failed, reason));
                 }
             }
         }
@@ -592,6 +603,8 @@ fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir:
             .map(|a| node.subscribe_in(&topics::JOINT_STATES.reading(Delivery::BestEffort { depth: 2000 }), &format!("/{a}")))
             .collect::<Result<_>>()?,
         robots: ARMS.iter().map(|a| node.subscribe_in(&topics::ROBOT_STREAM, &format!("/{a}"))).collect::<Result<_>>()?,
+        statuses: ARMS.iter().map(|a| node.subscribe_in(&topics::MOTION_STATUS, &format!("/{a}"))).collect::<Result<_>>()?,
+        reasons: Default::default(),
         judge: PizzaJudge::new(&exec_scene, model, placed.clone())?,
         events: Vec::new(),
         t_start: None,
