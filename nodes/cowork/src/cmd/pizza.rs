@@ -403,6 +403,9 @@ struct PizzaJudge {
     bases: [Isometry3<f64>; 2],
     pizza: Point3<f64>,
     table_z: f64,
+    /// The table top's x-y extent (world, m): a link below the table top elsewhere (behind the
+    /// table, under the torso's shoulders) touches nothing.
+    table_xy: ((f64, f64), (f64, f64)),
     start: BTreeMap<String, [f64; 2]>,
     /// Per ingredient: time over the pizza, taken by, last world pose and held.
     over: BTreeMap<String, f64>,
@@ -439,6 +442,11 @@ impl PizzaJudge {
             bases: [base("left")?, base("right")?],
             pizza: Point3::new(p[0], p[1], p[2]),
             table_z: scene.table_top_z(),
+            table_xy: {
+                let c = scene.table.pose.position;
+                let s = scene.table.size;
+                ((c[0] - s[0] / 2.0, c[0] + s[0] / 2.0), (c[1] - s[1] / 2.0, c[1] + s[1] / 2.0))
+            },
             start,
             over: BTreeMap::new(),
             taken_by: BTreeMap::new(),
@@ -507,7 +515,9 @@ impl PizzaJudge {
         self.joints[arm] = Some(q);
         self.judged_joints += 1;
         self.model.forward_kinematics(&q, &mut self.poses[arm]);
-        if let Some((z, _)) = self.hulls.lowest_z(&self.bases[arm], &self.poses[arm], 2) {
+        let ((x0, x1), (y0, y1)) = self.table_xy;
+        let over_table = |p: &Point3<f64>| (x0..=x1).contains(&p.x) && (y0..=y1).contains(&p.y);
+        if let Some((z, _)) = self.hulls.lowest_z(&self.bases[arm], &self.poses[arm], 2, over_table) {
             let above = z - self.table_z;
             self.lowest_z = Some(self.lowest_z.map_or(above, |m: f64| m.min(above)));
         }

@@ -191,20 +191,21 @@ impl ArmHulls {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// The lowest point (z in the base pose's frame, m) of the hulls of links `from_link`
-    /// onwards of one arm at base pose `base` with link poses `poses` (its base frame), and
-    /// the link it belongs to; `None` when none of those links has a hull. With `from_link` = 2
-    /// the base and the first link, which stand on their mount, are left out: an arm–table
-    /// contact is a lower link below the table top.
-    pub fn lowest_z(&self, base: &Isometry3<f64>, poses: &LinkPoses, from_link: usize) -> Option<(f64, usize)> {
+    /// The lowest point (z in the base pose's frame, m) among the hull vertices for which
+    /// `over` holds (e.g. above the table's footprint) of links `from_link` onwards of one arm
+    /// at base pose `base` with link poses `poses` (its base frame), and the link it belongs
+    /// to; `None` when no such vertex exists. With `from_link` = 2 the base and the first link,
+    /// which stand on their mount, are left out: an arm–table contact is a lower link below the
+    /// table top over the table.
+    pub fn lowest_z(&self, base: &Isometry3<f64>, poses: &LinkPoses, from_link: usize, over: impl Fn(&Point3<f64>) -> bool) -> Option<(f64, usize)> {
         self.hulls
             .iter()
             .enumerate()
             .skip(from_link)
             .filter_map(|(l, h)| {
                 let pose = base * poses.get(l);
-                let z = h.as_ref()?.points().iter().map(|p| (pose * p).z).fold(f64::INFINITY, f64::min);
-                Some((z, l))
+                let z = h.as_ref()?.points().iter().map(|p| pose * p).filter(|p| over(p)).map(|p| p.z).fold(f64::INFINITY, f64::min);
+                z.is_finite().then_some((z, l))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0))
     }

@@ -204,7 +204,8 @@ fn the_lowest_link_point_is_above_the_table_at_the_start_and_below_it_when_the_a
     let mut sim = Simulator::new(model(), pizza(), SimParams::default()).expect("simulator");
     let hulls = cowork_sim::ArmHulls::new(sim.model());
     let left = sim.arm_index("left").expect("left");
-    let (z, _) = hulls.lowest_z(sim.arm(left).base(), sim.arm(left).link_poses(), 2).expect("links with meshes");
+    let everywhere = |_: &nalgebra::Point3<f64>| true;
+    let (z, _) = hulls.lowest_z(sim.arm(left).base(), sim.arm(left).link_poses(), 2, everywhere).expect("links with meshes");
     assert!(z > 0.05, "start: lowest link point {z} m above the table top");
     // Somewhere in a sweep of the shoulder the hand goes through the table top (z = 0); the
     // kinematic simulator lets it, the judge must see it.
@@ -218,11 +219,13 @@ fn the_lowest_link_point_is_above_the_table_at_the_start_and_below_it_when_the_a
             sim.set_arm_joint_target(left, q.as_slice()).expect("target");
             sim.step();
         }
-        let found = hulls.lowest_z(sim.arm(left).base(), sim.arm(left).link_poses(), 2).expect("links");
+        let found = hulls.lowest_z(sim.arm(left).base(), sim.arm(left).link_poses(), 2, everywhere).expect("links");
         if found.0 < lowest.0 {
             lowest = found;
         }
     }
     let (z, link) = lowest;
     assert!(z < 0.0, "reaching down: lowest point {z} m (link {link})");
+    // Only points over a region count: nowhere, nothing.
+    assert!(hulls.lowest_z(sim.arm(left).base(), sim.arm(left).link_poses(), 2, |_| false).is_none());
 }
