@@ -288,11 +288,11 @@ fn teach_both_arms(args: &ExperimentArgs, dir: &Path) -> Result<(PizzaTeaching, 
     Ok((teaching, ltm, database_dir))
 }
 
-/// splitmix64 uniform draws in [lo, hi).
-struct Draws(u64);
+/// splitmix64 uniform draws in [lo, hi): a few draws per trial need no generator crate.
+pub(super) struct Draws(pub(super) u64);
 
 impl Draws {
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+    pub(super) fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
         self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
         let mut z = self.0;
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);

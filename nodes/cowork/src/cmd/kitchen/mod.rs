@@ -588,16 +588,8 @@ fn print_reuse_table(run: &KitchenRun, kitchen: &Kitchen) {
 /// Positions for `seed` of the objects `kitchen` moves: each uniform in its box, clear of every
 /// other object (where it stands, or where an earlier draw put it).
 fn object_positions(kitchen: &Kitchen, scene: &Scene, seed: u64) -> Result<BTreeMap<String, [f64; 2]>> {
-    // splitmix64: a few uniform draws need no generator crate.
-    let mut state = seed ^ 0x706f_7572;
-    let mut uniform = |lo: f64, hi: f64| {
-        state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = state;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^= z >> 31;
-        lo + (hi - lo) * ((z >> 11) as f64 / (1u64 << 53) as f64)
-    };
+    let mut draws = super::pizza::Draws(seed ^ 0x706f_7572);
+    let mut uniform = |lo: f64, hi: f64| draws.uniform(lo, hi);
     let mut out: BTreeMap<String, [f64; 2]> = BTreeMap::new();
     for &(name, xs, ys) in kitchen.moved {
         let mut found = None;
