@@ -334,14 +334,7 @@ impl Simulator {
     /// # Panics
     /// If `arm` is not an arm index.
     pub fn set_arm_velocity_command(&mut self, arm: usize, qd: &[f64]) -> Result<(), CommandError> {
-        if qd.len() != DOF {
-            self.hold_arm(arm);
-            return Err(CommandError::WrongLength { got: qd.len(), expected: DOF });
-        }
-        if let Some((index, value)) = qd.iter().copied().enumerate().find(|(_, v)| !v.is_finite()) {
-            self.hold_arm(arm);
-            return Err(CommandError::NotFinite { what: "joint velocity command", index, value });
-        }
+        self.check_joint_vector(arm, qd, "joint velocity command")?;
         let a = &mut self.arms[arm];
         a.command = JointVector::from_column_slice(qd);
         a.command_time_ns = Some(self.time_ns);
@@ -355,14 +348,7 @@ impl Simulator {
     /// external wrench. A target of the wrong length, not finite or outside the joint limits is
     /// refused and the arm held.
     pub fn set_arm_joint_target(&mut self, arm: usize, q: &[f64]) -> Result<(), CommandError> {
-        if q.len() != DOF {
-            self.hold_arm(arm);
-            return Err(CommandError::WrongLength { got: q.len(), expected: DOF });
-        }
-        if let Some((index, value)) = q.iter().copied().enumerate().find(|(_, v)| !v.is_finite()) {
-            self.hold_arm(arm);
-            return Err(CommandError::NotFinite { what: "joint target", index, value });
-        }
+        self.check_joint_vector(arm, q, "joint target")?;
         let limits = self.model.joint_limits();
         if let Some((index, value)) = q.iter().copied().enumerate().find(|&(i, v)| v < limits[i].lower || v > limits[i].upper) {
             let (lower, upper) = (limits[index].lower, limits[index].upper);
@@ -373,6 +359,22 @@ impl Simulator {
         a.target = JointVector::from_column_slice(q);
         a.target_time_ns = Some(self.time_ns);
         Ok(())
+    }
+
+    /// One value per joint, all finite; otherwise arm `arm` is held and the error says why.
+    fn check_joint_vector(&mut self, arm: usize, v: &[f64], what: &'static str) -> Result<(), CommandError> {
+        let bad = if v.len() != DOF {
+            Some(CommandError::WrongLength { got: v.len(), expected: DOF })
+        } else {
+            v.iter().copied().enumerate().find(|(_, x)| !x.is_finite()).map(|(index, value)| CommandError::NotFinite { what, index, value })
+        };
+        match bad {
+            Some(e) => {
+                self.hold_arm(arm);
+                Err(e)
+            }
+            None => Ok(()),
+        }
     }
 
     /// Whether arm `arm` is following a joint target now ([`Self::set_arm_joint_target`]).
