@@ -112,6 +112,19 @@ fn bridge_advertises_and_forwards_cdr_with_ros2msg_schemas() {
         match msg {
             Message::Text(text) => {
                 let v: serde_json::Value = serde_json::from_str(text.as_str()).expect("JSON");
+                // The foxglove SDK (0.30) sends a channel's advertisement before it records
+                // the channel for the client: a subscription that arrives in between is
+                // refused with "Unknown channel ID: N" (a status message). Foxglove's app
+                // would lose it the same way; this client subscribes again.
+                if v["op"] == "status" {
+                    let refused = v["message"].as_str().and_then(|m| m.strip_prefix("Unknown channel ID: ")).and_then(|id| id.trim().parse::<u64>().ok());
+                    if let Some(id) = refused.filter(|id| channels.contains_key(id)) {
+                        std::thread::sleep(Duration::from_millis(100));
+                        let sub = serde_json::json!({"op": "subscribe", "subscriptions": [{"id": id, "channelId": id}]});
+                        ws.send(Message::Text(sub.to_string().into())).expect("subscribe again");
+                    }
+                    continue;
+                }
                 if v["op"] != "advertise" {
                     continue;
                 }

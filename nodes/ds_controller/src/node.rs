@@ -326,6 +326,8 @@ pub enum Input {
     Command(MotionCommandMsg),
     /// `/lwr/world` (scene objects' poses).
     World(WorldState),
+    /// `/<arm>/joint_states` of the scene's other arm number `.0` (`SceneObjects::other_arms`).
+    OtherArm(usize, JointState),
     /// `/lwr/external_wrench` (only read with `controller.ttc.enabled`).
     Wrench(WrenchStamped),
     /// One step of the real-time loop.
@@ -548,6 +550,7 @@ impl DsNode {
             Input::Human(m) => self.on_human(&m, now, out),
             Input::Command(m) => self.on_command(&m, now, out),
             Input::World(m) => self.on_world(&m, out),
+            Input::OtherArm(i, m) => self.on_other_arm(i, &m, out),
             Input::Wrench(m) => self.on_wrench(&m, now, out),
             Input::Step(o) => self.on_step(&o, now, out),
         }
@@ -568,13 +571,29 @@ impl DsNode {
         }
     }
 
+    /// `/<arm>/joint_states` of another arm (`i` as in `SceneObjects::other_arms`): where its
+    /// links are, for the damper. A rejected message is ignored with a warning (the arm's
+    /// newest good state ages out, and then it is an unknown obstacle).
+    pub fn on_other_arm(&mut self, i: usize, m: &JointState, out: &mut Outputs) {
+        match self.adapter.joint_state(m) {
+            Ok(q) => self.scene.on_other_arm(i, &q, m.header.stamp.to_secs_f64()),
+            Err(r) => {
+                let arm = self.scene.other_arms().get(i).cloned().unwrap_or_default();
+                out.warnings.push(Warning::new(
+                    format!("/{arm}/joint_states:rejected"),
+                    format!("/{arm}/joint_states rejected (that arm is an unknown obstacle until good ones come): {}", r.reason),
+                ));
+            }
+        }
+    }
+
     /// `/fded/distances`: classified by the scene objects and the handover goal; a rejected
     /// message holds the robot (fail closed) with the reason in the status until good ones come.
     pub fn on_distances(&mut self, m: &LinkDistances, now: f64, out: &mut Outputs) {
         let topic = topics::FDED_DISTANCES.name;
         match self.adapter.distances(m, m.header.stamp.to_secs_f64()) {
             Ok(mut d) => {
-                if self.scene.known() > 0 && self.scene.mark(&mut d).is_none() {
+                if self.scene.any() && self.scene.mark(&mut d).is_none() && self.scene.known() > 0 {
                     out.warnings.push(Warning::new(
                         format!("{topic}:no_world"),
                         format!(

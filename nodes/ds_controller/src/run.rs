@@ -122,7 +122,8 @@ pub fn run(node: RosNode, model: RobotModel, params: &Params, options: &RunOptio
     // In an arm's namespace (`--ros-args -r __ns:=/left`) the arm's frames are `left/...`.
     let prefix = node.frame_prefix();
     let base_frame = format!("{prefix}{}", model.link_names().first().cloned().unwrap_or_default());
-    let scene = SceneObjects::from_params(&params.scene_objects, &base_frame)?;
+    let scene = SceneObjects::from_params(&params.scene_objects, &base_frame, &model)?;
+    let other_arms = scene.other_arms();
     let mut ds = DsNode::new(&model, params, scene);
     ds.set_frame_prefix(&prefix);
     let ctl = DsController::new(model, params.controller).map_err(|e| anyhow::anyhow!("controller: {e}"))?;
@@ -137,6 +138,10 @@ pub fn run(node: RosNode, model: RobotModel, params: &Params, options: &RunOptio
     dds.add(&topics::JOINT_STATES, |m| Dds::In(Input::JointState(m)))?;
     // Object poses before the distances they classify (the source takes subscriptions in turn).
     dds.add(&topics::WORLD, |m| Dds::In(Input::World(m)))?;
+    // The scene's other arms (their links are known obstacles), before the distances too.
+    for (i, arm) in other_arms.iter().enumerate() {
+        dds.add_in(&topics::JOINT_STATES, &format!("/{arm}"), move |m| Dds::In(Input::OtherArm(i, m)))?;
+    }
     dds.add(&topics::FDED_DISTANCES, |m| Dds::In(Input::Distances(m)))?;
     dds.add(&topics::HUMAN_STATE, |m| Dds::In(Input::Human(m)))?;
     dds.add(&topics::MOTION_COMMAND, |m| Dds::In(Input::Command(m)))?;
@@ -185,10 +190,15 @@ pub fn run(node: RosNode, model: RobotModel, params: &Params, options: &RunOptio
         params.controller.stale_after_s
     );
     tracing::info!(
-        "link damper: {} scene objects known{} (their points get the scene distances, from {} poses)",
+        "link damper: {} scene objects known{} (their points get the scene distances, from {} poses){}",
         ds.scene_objects_known(),
         if params.scene_objects.scene.is_empty() { String::new() } else { format!(" from {}", params.scene_objects.scene) },
-        topics::WORLD.name
+        topics::WORLD.name,
+        if other_arms.is_empty() {
+            String::new()
+        } else {
+            format!(", and the other arms {} from their joint states", other_arms.iter().map(|a| format!("/{a}")).collect::<Vec<_>>().join(", "))
+        }
     );
     let t = &params.controller.ttc;
     if t.enabled {

@@ -26,6 +26,18 @@
 //! nearer pixel and is damped in full.) [`SceneObjects::with_camera`]`(None)` makes only the
 //! shape test.
 //!
+//! **The other arms.** In a scene with several arms (`config/scenes/pizza.yaml`) each arm's
+//! fDED removes only its own arm from the depth image, so the other arm is an obstacle like any
+//! other — and with the person distances (stop 10 cm, slow 30 cm) the arm pouring over the
+//! pizza stalled beside the arm waiting at the central area's boundary ("approach limited:
+//! lwr_link_4", `cowork experiment pizza` seeds 1 and 2, 2026-12-05). The other arm is not a
+//! person: where it is comes from its own `/<arm>/joint_states` and the shared URDF, exactly.
+//! So an obstacle point within `margin_m` of one of its link hulls (the link meshes' convex
+//! hulls, `cowork_sim::ArmHulls`), or in the shadow of one seen from the camera, is marked as
+//! known — the links keep the scene distances from it (stop 3 cm), never pass into it — and
+//! its velocity is that link point's, from the last two joint states. Joint states further
+//! than `max_age_s` from the distances' stamp: the other arm is unknown (the full distances).
+//!
 //! Fail closed: no report, a report further than `max_age_s` from the distances' stamp, one in
 //! another frame or with a non-finite pose, an object whose name has no shape: nothing is
 //! known, every obstacle gets the damper's full (person) distances.
@@ -36,7 +48,8 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use cowork_ds::Distances;
 use cowork_msgs::msg::WorldState;
-use cowork_sim::Shape;
+use cowork_robot::{JointVector, LinkPoses, RobotModel};
+use cowork_sim::{ArmHulls, Shape};
 use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -86,6 +99,27 @@ pub struct SceneObjects {
     /// (stamp s, [(name, shape, pose in the base frame, velocity m/s)]) of the newest usable
     /// report.
     world: Option<(f64, Vec<Known>)>,
+    /// The scene's other arms (none in a single-arm scene).
+    others: Option<OtherArms>,
+}
+
+/// The other arms of the scene and their newest joint states.
+#[derive(Debug, Clone)]
+struct OtherArms {
+    model: RobotModel,
+    hulls: ArmHulls,
+    arms: Vec<OtherArm>,
+}
+
+/// One other arm.
+#[derive(Debug, Clone)]
+struct OtherArm {
+    name: String,
+    /// Its base frame in this arm's base frame.
+    base: Isometry3<f64>,
+    /// (stamp s, link poses in its base frame) of its newest and previous joint states.
+    newest: Option<(f64, LinkPoses)>,
+    previous: Option<(f64, LinkPoses)>,
 }
 
 /// One known object in the newest report.
@@ -99,12 +133,27 @@ struct Known {
     velocity: Vector3<f64>,
 }
 
+impl OtherArm {
+    /// Velocity (m/s, this arm's base frame) of the point of link `link` now at `p`, from the
+    /// last two joint states (zero without two within 0.5 s).
+    fn point_velocity(&self, link: usize, p: &Point3<f64>) -> Vector3<f64> {
+        let (Some((t, now)), Some((t0, before))) = (&self.newest, &self.previous) else { return Vector3::zeros() };
+        let dt = t - t0;
+        if !(dt > 0.0 && dt <= 0.5) {
+            return Vector3::zeros();
+        }
+        let local = (self.base * now.get(link)).inverse_transform_point(p);
+        (p - self.base * before.get(link) * local) / dt
+    }
+}
+
 impl SceneObjects {
     /// From the parameters: the scene file (empty: none known) relative to the working
-    /// directory; reports must be in `base_frame`.
-    pub fn from_params(p: &SceneObjectsParams, base_frame: &str) -> Result<Self> {
+    /// directory; reports must be in `base_frame`. The scene's other arms are `model`s.
+    pub fn from_params(p: &SceneObjectsParams, base_frame: &str, model: &RobotModel) -> Result<Self> {
         let mut shapes = HashMap::new();
         let mut camera = None;
+        let mut others = Vec::new();
         if !p.scene.is_empty() {
             let path = Path::new(&p.scene);
             let scene = cowork_sim::Scene::from_file(path)
@@ -118,9 +167,44 @@ impl SceneObjects {
                 )
             })?;
             camera = Some(Point3::from((base.inverse() * scene.camera.pose.isometry()).translation.vector));
+            let own = prefix.strip_suffix('/').unwrap_or(prefix);
+            for arm in scene.arm_setups().into_iter().filter(|a| a.name != own) {
+                others.push((arm.name, base.inverse() * arm.base.isometry()));
+            }
             shapes.extend(scene.objects.into_iter().map(|o| (o.name, o.shape)));
         }
-        Ok(Self::new(shapes, p.margin_m, p.max_age_s, base_frame).with_camera(camera))
+        let mut known = Self::new(shapes, p.margin_m, p.max_age_s, base_frame).with_camera(camera);
+        if !others.is_empty() {
+            known = known.with_other_arms(model, others);
+        }
+        Ok(known)
+    }
+
+    /// The other arms of the scene, `(name, base pose in this arm's base frame)`, all of
+    /// `model`: obstacle points on them are known (module docs) once their joint states come
+    /// ([`SceneObjects::on_other_arm`]).
+    pub fn with_other_arms(mut self, model: &RobotModel, arms: Vec<(String, Isometry3<f64>)>) -> Self {
+        let arms = arms.into_iter().map(|(name, base)| OtherArm { name, base, newest: None, previous: None }).collect();
+        self.others = Some(OtherArms { model: model.clone(), hulls: ArmHulls::new(model), arms });
+        self
+    }
+
+    /// Names of the other arms, in the order [`SceneObjects::on_other_arm`] numbers them.
+    pub fn other_arms(&self) -> Vec<String> {
+        self.others.iter().flat_map(|o| o.arms.iter().map(|a| a.name.clone())).collect()
+    }
+
+    /// Joint positions `q` (rad, validated by the caller) of other arm `arm` measured at
+    /// `stamp` (s). A stamp not after the newest one is ignored (a late or repeated message).
+    pub fn on_other_arm(&mut self, arm: usize, q: &JointVector, stamp: f64) {
+        let Some(others) = self.others.as_mut() else { return };
+        let Some(other) = others.arms.get_mut(arm) else { return };
+        if !stamp.is_finite() || other.newest.as_ref().is_some_and(|(t, _)| stamp <= *t) {
+            return;
+        }
+        let mut poses = LinkPoses::new();
+        others.model.forward_kinematics(q, &mut poses);
+        other.previous = other.newest.replace((stamp, poses));
     }
 
     /// Obstacle points in an object's shadow seen from `camera` (base frame) are that object's.
@@ -131,12 +215,17 @@ impl SceneObjects {
 
     /// With `shapes` by object name.
     pub fn new(shapes: HashMap<String, Shape>, margin_m: f64, max_age_s: f64, base_frame: &str) -> Self {
-        Self { shapes, margin_m, max_age_s, base_frame: base_frame.to_owned(), camera: None, world: None }
+        Self { shapes, margin_m, max_age_s, base_frame: base_frame.to_owned(), camera: None, world: None, others: None }
     }
 
     /// Number of objects with a known shape.
     pub fn known(&self) -> usize {
         self.shapes.len()
+    }
+
+    /// Whether anything can be known: an object shape or another arm.
+    pub fn any(&self) -> bool {
+        !self.shapes.is_empty() || self.others.is_some()
     }
 
     /// A `/lwr/world` report. One in another frame, with a non-finite stamp or pose is
@@ -186,14 +275,15 @@ impl SceneObjects {
     /// marked or changed) when no report is within `max_age_s` of `d.stamp`.
     pub fn mark(&self, d: &mut Distances) -> Option<usize> {
         d.scene_object = [false; cowork_robot::MAX_LINKS];
+        let on_arms = self.mark_other_arms(d);
         let (t, objects) = self.world.as_ref()?;
         let age = (t - d.stamp).abs();
         if age.is_nan() || age > self.max_age_s {
             return None;
         }
-        let mut n = 0;
+        let mut n = on_arms;
         for (link, mark) in d.links.iter_mut().zip(d.scene_object.iter_mut()).take(d.count) {
-            if !link.valid || !link.obstacle_point.iter().all(|v| v.is_finite()) {
+            if *mark || !link.valid || !link.obstacle_point.iter().all(|v| v.is_finite()) {
                 continue;
             }
             let p = Point3::from(link.obstacle_point);
@@ -205,6 +295,37 @@ impl SceneObjects {
             }
         }
         Some(n)
+    }
+
+    /// Marks the links whose valid obstacle point lies on another arm (within the margin of a
+    /// link hull, or in its shadow seen from the camera) with joint states within `max_age_s`
+    /// of `d.stamp`, and gives them that link point's velocity. Returns how many.
+    fn mark_other_arms(&self, d: &mut Distances) -> usize {
+        let Some(others) = self.others.as_ref() else { return 0 };
+        let mut n = 0;
+        for (link, mark) in d.links.iter_mut().zip(d.scene_object.iter_mut()).take(d.count) {
+            if !link.valid || !link.obstacle_point.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            let p = Point3::from(link.obstacle_point);
+            for arm in &others.arms {
+                let Some((t, poses)) = arm.newest.as_ref() else { continue };
+                let age = (t - d.stamp).abs();
+                if age.is_nan() || age > self.max_age_s {
+                    continue;
+                }
+                let on = match others.hulls.nearest_link(&arm.base, poses, &p) {
+                    Some((distance, l)) if distance <= self.margin_m => Some(l),
+                    _ => self.camera.and_then(|c| others.hulls.link_on_segment(&arm.base, poses, &p, &c)),
+                };
+                let Some(l) = on else { continue };
+                *mark = true;
+                link.obstacle_velocity = arm.point_velocity(l, &p);
+                n += 1;
+                break;
+            }
+        }
+        n
     }
 
     /// `p` (base frame) lies in `k`'s shape grown by the margin, or in its shadow: the segment
@@ -344,6 +465,61 @@ mod tests {
             assert!(bad.validate("p.yaml").is_err_and(|e| e.to_string().contains("scene_objects")));
         }
         let missing = SceneObjectsParams { scene: "/nonexistent/scene.yaml".into(), ..Default::default() };
-        assert!(SceneObjects::from_params(&missing, "b").is_err_and(|e| format!("{e:#}").contains("scene_objects.scene")));
+        assert!(SceneObjects::from_params(&missing, "b", &lwr()).is_err_and(|e| format!("{e:#}").contains("scene_objects.scene")));
+    }
+
+    fn lwr() -> RobotModel {
+        RobotModel::from_urdf_file(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/robot/lwr4plus.urdf")).expect("URDF")
+    }
+
+    fn scene_params(scene: &str) -> SceneObjectsParams {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/scenes").join(scene);
+        SceneObjectsParams { scene: path.display().to_string(), ..Default::default() }
+    }
+
+    #[test]
+    fn a_point_on_the_other_arm_is_known_with_that_links_velocity() {
+        let model = lwr();
+        let mut s = SceneObjects::from_params(&scene_params("pizza.yaml"), "left/lwr_base_link", &model).expect("pizza scene");
+        assert_eq!(s.other_arms(), ["right"]);
+        let single = SceneObjects::from_params(&scene_params("kitchen.yaml"), "lwr_base_link", &model).expect("kitchen scene");
+        assert!(single.other_arms().is_empty(), "a single-arm scene has no other arm");
+
+        // The right arm at its start joints, in the left arm's base frame.
+        let scene = cowork_sim::Scene::from_file(Path::new(&scene_params("pizza.yaml").scene)).expect("scene");
+        let (left, right) = (scene.arms[0].base.isometry(), scene.arms[1].base.isometry());
+        let q0 = JointVector::from_iterator(scene.arms[1].initial_joints_deg.iter().map(|d| d.to_radians()));
+        // The centre of link 5's mesh (inside its hull).
+        let mesh = &model.link_mesh(5).expect("link 5 mesh").vertices;
+        let centre = mesh.iter().fold(Vector3::zeros(), |c, v| c + v.coords) / mesh.len() as f64;
+        let on_wrist = left.inverse() * right * model.link_pose(&q0, 5) * Point3::from(centre);
+        let free = Point3::new(0.3, 0.3, 0.3);
+        let pts = [[on_wrist.x, on_wrist.y, on_wrist.z], [free.x, free.y, free.z]];
+
+        let mut d = distances(1.0, &pts);
+        assert_eq!(s.mark(&mut d), None, "no joint states and no world report yet");
+        assert_eq!(&d.scene_object[..2], &[false, false], "an arm not heard from is unknown");
+        s.on_other_arm(0, &q0, 1.0);
+        let mut d = distances(1.0, &pts);
+        s.mark(&mut d);
+        assert_eq!(&d.scene_object[..2], &[true, false], "on the wrist: known; 30 cm away: unknown");
+        assert_eq!(d.links[0].obstacle_velocity, Vector3::zeros(), "one joint state: standing");
+
+        // Joint 1 turning at 1 rad/s: the wrist point moves at ω × r about joint 1's axis.
+        let mut q1 = q0;
+        q1[0] += 0.01;
+        s.on_other_arm(0, &q1, 1.01);
+        s.on_other_arm(0, &q0, 1.005); // late: ignored
+        let moved = left.inverse() * right * model.link_pose(&q1, 5) * Point3::from(centre);
+        let mut d = distances(1.01, &[[moved.x, moved.y, moved.z]]);
+        s.mark(&mut d);
+        assert!(d.scene_object[0]);
+        let expected = (moved - on_wrist) / 0.01;
+        assert!((d.links[0].obstacle_velocity - expected).norm() < 0.02 * expected.norm(), "{} vs {expected}", d.links[0].obstacle_velocity);
+
+        // Joint states 0.3 s from the distances: unknown again (fail closed).
+        let mut late = distances(1.31, &[[moved.x, moved.y, moved.z]]);
+        s.mark(&mut late);
+        assert!(!late.scene_object[0]);
     }
 }

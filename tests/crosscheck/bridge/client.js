@@ -111,6 +111,8 @@ const CHECKS = {
   "/robot_description": checkDescription,
 };
 
+/** Channel id → the topic and reader of every wanted channel advertised. */
+const advertised = new Map();
 client.on("error", (e) => fail(`websocket error: ${e && e.message ? e.message : e}`));
 client.on("close", () => {
   if (!done) fail("the server closed the connection");
@@ -131,7 +133,17 @@ client.on("advertise", (channels) => {
     }
     const id = client.subscribe(ch.id);
     subscriptions.set(id, { topic: ch.topic, reader });
+    advertised.set(ch.id, { topic: ch.topic, reader });
   }
+});
+// The foxglove SDK (0.30) sends a channel's advertisement before it records the channel for
+// the client: a subscription that arrives in between is refused ("Unknown channel ID: N").
+// Subscribe to that channel again.
+client.on("status", (status) => {
+  const refused = /Unknown channel ID: (\d+)/.exec(status.message || "");
+  const sub = refused && advertised.get(Number(refused[1]));
+  if (!sub) return;
+  setTimeout(() => subscriptions.set(client.subscribe(Number(refused[1])), sub), 100);
 });
 client.on("message", ({ subscriptionId, timestamp, data }) => {
   const arrivalMs = performance.timeOrigin + performance.now();

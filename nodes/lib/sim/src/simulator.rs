@@ -5,7 +5,7 @@ use cowork_robot::{
 };
 use nalgebra::{Isometry3, Point3, Vector3, Vector6};
 use parry3d_f64::bounding_volume::BoundingVolume;
-use parry3d_f64::query::PointQuery;
+use parry3d_f64::query::{PointQuery, Ray, RayCast};
 use parry3d_f64::shape::{ConvexPolyhedron, Shape as ParryShape};
 
 use crate::error::{CommandError, Result, SimError};
@@ -184,11 +184,32 @@ impl ArmHulls {
     /// Distance (m) from `point` to the nearest link hull of one arm at base pose `base` (the
     /// point's frame) with link poses `poses` (its base frame); 0 inside a hull.
     pub fn distance_to_point(&self, base: &Isometry3<f64>, poses: &LinkPoses, point: &Point3<f64>) -> f64 {
+        self.nearest_link(base, poses, point).map_or(f64::INFINITY, |(d, _)| d)
+    }
+
+    /// The link whose hull is nearest to `point` and its distance (m; 0 inside), as
+    /// [`ArmHulls::distance_to_point`]; `None` for a model without meshes. Allocation-free.
+    pub fn nearest_link(&self, base: &Isometry3<f64>, poses: &LinkPoses, point: &Point3<f64>) -> Option<(f64, usize)> {
         self.hulls
             .iter()
             .enumerate()
-            .filter_map(|(l, h)| Some(h.as_ref()?.distance_to_point(&(base * poses.get(l)), point, true)))
-            .fold(f64::INFINITY, f64::min)
+            .filter_map(|(l, h)| Some((h.as_ref()?.distance_to_point(&(base * poses.get(l)), point, true), l)))
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// The first link of the arm (as in [`ArmHulls::distance_to_point`]) whose hull the segment
+    /// from `from` to `to` (the points' frame) passes through, if any: `from` lies in that
+    /// link's shadow seen from `to`. Allocation-free.
+    pub fn link_on_segment(&self, base: &Isometry3<f64>, poses: &LinkPoses, from: &Point3<f64>, to: &Point3<f64>) -> Option<usize> {
+        let along = to - from;
+        let length = along.norm();
+        if !(length > 1e-9) {
+            return None;
+        }
+        let ray = Ray::new(*from, along / length);
+        self.hulls.iter().enumerate().find_map(|(l, h)| {
+            h.as_ref()?.intersects_ray(&(base * poses.get(l)), &ray, length).then_some(l)
+        })
     }
 
     /// The lowest point (z in the base pose's frame, m) among the hull vertices for which
