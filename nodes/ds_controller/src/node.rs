@@ -542,6 +542,23 @@ impl DsNode {
         self.scene.known()
     }
 
+    /// ` (0.087 m to an unknown obstacle at (x, y, z) m)`: link `l`'s newest distance, obstacle
+    /// point (base frame) and whether it is a known scene object or another arm.
+    fn limited_detail(&self, l: usize) -> String {
+        let d = &self.rt.distances;
+        match d.links.get(l).filter(|_| l < d.count) {
+            Some(e) if e.valid => format!(
+                " ({:.3} m to {} at ({:.2}, {:.2}, {:.2}) m)",
+                e.distance,
+                if d.scene_object[l] { "a known object" } else { "an unknown obstacle" },
+                e.obstacle_point.x,
+                e.obstacle_point.y,
+                e.obstacle_point.z
+            ),
+            _ => String::new(),
+        }
+    }
+
     /// Handles one input at node time `now` (s), appending to `out`.
     pub fn on_input(&mut self, input: Input, now: f64, out: &mut Outputs) {
         match input {
@@ -736,7 +753,9 @@ impl DsNode {
         }
         if let Some((s, changed)) = self.status.on_output(o, &self.adapter, now) {
             if changed {
-                out.notes.push(format!("status: command {} state {} {}", s.command_id, s.state, s.reason));
+                // The log says what held the link back (the status only names the link).
+                let detail = o.approach_limited.filter(|_| s.reason.starts_with("approach limited")).map(|l| self.limited_detail(l)).unwrap_or_default();
+                out.notes.push(format!("status: command {} state {} {}{detail}", s.command_id, s.state, s.reason));
             }
             out.statuses.push(s);
         }

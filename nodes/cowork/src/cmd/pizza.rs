@@ -626,7 +626,9 @@ fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir:
         std::fs::create_dir_all(rec).with_context(|| format!("creating {}", rec.display()))?;
         let bag = rec.join(format!("pizza-{area}-{seed}.mcap"));
         let me = std::env::current_exe().context("locating the cowork binary for the recorder")?;
-        g.spawn("recorder", &me, &["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), format!("{:.0}", wall_limit + 120.0)])?;
+        let mut rec_args: Vec<String> = vec!["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), format!("{:.0}", wall_limit + 120.0)];
+        rec_args.extend(args.recorded_topics());
+        g.spawn("recorder", &me, &rec_args)?;
     }
     let bin = |b: &str| args.bin_dir.join(b);
     let owned = |v: &[&str]| v.iter().map(|a| (*a).to_owned()).collect::<Vec<String>>();

@@ -918,7 +918,9 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
         std::fs::create_dir_all(rec).with_context(|| format!("creating {}", rec.display()))?;
         let bag = rec.join(format!("{}-{}.mcap", args.name, trial.seed));
         let me = std::env::current_exe().context("locating the cowork binary for the recorder")?;
-        g.spawn("recorder", &me, &["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), dur.clone()])?;
+        let mut rec_args: Vec<String> = vec!["bag".into(), "record".into(), "-o".into(), s(&bag), "--duration".into(), dur.clone()];
+        rec_args.extend(args.recorded_topics());
+        g.spawn("recorder", &me, &rec_args)?;
     }
     // The runner stops lwr_sim; its own limit is far beyond the trial's (counted from the first action).
     let mut sim_args = vec!["--scene".into(), s(scene), "--rate".into(), args.rate.to_string(), "--duration".into(), format!("{:.0}", limit_s + 600.0)];
