@@ -56,16 +56,35 @@ const THESIS: [(&str, f64, f64); 2] = [("dual", 281.6, 13.83), ("uni", 332.4, 28
 /// The arms, in the scene's order.
 const ARMS: [&str; 2] = ["left", "right"];
 
-/// Where an ingredient may stand in each arm's area for an execution (world frame, m): the
-/// region the demonstrations' bottles spanned (config/scenes/pizza-teach-left.yaml), mirrored
-/// for the right arm.
-const LEFT_AREA: ((f64, f64), (f64, f64)) = ((0.27, 0.50), (0.29, 0.52));
+/// Where an ingredient may stand in each arm's area for an execution (world frame, m): around
+/// the region the demonstrations' bottles spanned (config/scenes/pizza-teach-left.yaml: x
+/// 0.27–0.49, y 0.30–0.52), mirrored for the right arm, less [`UNDER_THE_FOREARM`].
+const LEFT_AREA: ((f64, f64), (f64, f64)) = ((0.25, 0.55), (0.29, 0.55));
 
-/// No ingredient stands here (world x, |y| ranges, m): under the forearm of the arm that pours
-/// over the pizza. The controllers avoid obstacles (the thesis's pizza runs did not), and a
-/// bottle there keeps the forearm from coming down to the pour (uni seed 1, 2026-12-05: the
-/// oil at (0.50, 0.32) held the left forearm 6 cm above it for 120 s).
-const UNDER_THE_POUR: ((f64, f64), (f64, f64)) = ((0.40, 0.60), (0.0, 0.39));
+/// No ingredient stands within [`FOREARM_CLEARANCE_M`] of this segment (world x-y, m; mirrored
+/// for the right arm): the table under the forearm of the left arm pouring over the pizza,
+/// from where the forearm is 26 cm above the table (near the elbow) to the wrist, 12 cm above
+/// it (joint states of the pour `lnoa13(pizza)`, `cowork experiment pizza --seed 1`,
+/// 2026-12-06: elbow (0.18, 0.35, 0.33), link 5 (0.34, 0.31, 0.22), wrist (0.49, 0.27, 0.12)).
+/// The controllers keep every link 3 cm from a known object (the thesis's pizza runs did not
+/// avoid obstacles), so a 16 cm bottle standing there holds the pour: the basil at (0.34,
+/// 0.40) and at (0.39, 0.385) and the oil at (0.50, 0.32) each held the left forearm 2–3 cm
+/// above its top for 33–120 s.
+const UNDER_THE_FOREARM: [[f64; 2]; 2] = [[0.22, 0.34], [0.52, 0.25]];
+/// Forearm radius (~6 cm) + bottle radius (3 cm) + 5 cm, m: the elbow's swivel differs from
+/// one execution to the next (it follows the arm's path), and the basil at (0.41, 0.42), 13 cm
+/// from the segment, still held the forearm of a pour that came from the cheese at (0.30, 0.58).
+const FOREARM_CLEARANCE_M: f64 = 0.14;
+
+/// Whether `p` (world x, y) is under the forearm of the arm on its side pouring (see
+/// [`UNDER_THE_FOREARM`]).
+fn under_the_forearm(p: [f64; 2]) -> bool {
+    let [a, b] = UNDER_THE_FOREARM;
+    let q = [p[0], p[1].abs()];
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let t = (((q[0] - a[0]) * dx + (q[1] - a[1]) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+    (q[0] - a[0] - t * dx).hypot(q[1] - a[1] - t * dy) < FOREARM_CLEARANCE_M
+}
 
 /// Two ingredients stand at least this far apart (centres, m).
 const SPACING_M: f64 = 0.13;
@@ -320,15 +339,13 @@ pub fn ingredient_positions(area: &str, seed: u64) -> Result<BTreeMap<String, [f
         }
     }
     let ((x0, x1), (y0, y1)) = LEFT_AREA;
-    let ((ux0, ux1), (uy0, uy1)) = UNDER_THE_POUR;
     // Whole sets are drawn again until one fits (a greedy draw can corner the last bottle).
     for _ in 0..1000 {
         let mut out: BTreeMap<String, [f64; 2]> = BTreeMap::new();
         for (name, side) in INGREDIENTS.iter().zip(&sides) {
             for _ in 0..200 {
                 let p = [d.uniform(x0, x1), side * d.uniform(y0, y1)];
-                let under = (ux0..=ux1).contains(&p[0]) && (uy0..=uy1).contains(&p[1].abs());
-                if !under && out.values().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= SPACING_M) {
+                if !under_the_forearm(p) && out.values().all(|q| (q[0] - p[0]).hypot(q[1] - p[1]) >= SPACING_M) {
                     out.insert((*name).to_owned(), p);
                     break;
                 }
@@ -807,7 +824,7 @@ mod tests {
                     "right" => assert!(ys.iter().all(|y| *y < -0.2)),
                     _ => assert_eq!(ys.iter().filter(|y| **y > 0.2).count(), 2, "{p:?}"),
                 }
-                assert!(p.values().all(|v| !(v[0] >= 0.40 && v[1].abs() <= 0.39)), "{p:?}");
+                assert!(p.values().all(|v| !under_the_forearm(*v)), "{p:?}");
                 let v: Vec<&[f64; 2]> = p.values().collect();
                 for i in 0..v.len() {
                     for j in i + 1..v.len() {
@@ -818,5 +835,10 @@ mod tests {
         }
         assert_ne!(ingredient_positions("dual", 1).unwrap(), ingredient_positions("dual", 2).unwrap());
         assert!(ingredient_positions("middle", 1).is_err());
+        // The spots that held the pouring forearm are under it; the demonstrations' far corner is not.
+        for blocked in [[0.34, 0.40], [0.39, 0.385], [0.50, 0.32], [0.50, -0.32], [0.41, 0.42]] {
+            assert!(under_the_forearm(blocked), "{blocked:?}");
+        }
+        assert!(!under_the_forearm([0.25, 0.53]) && !under_the_forearm([0.49, -0.52]));
     }
 }
