@@ -117,9 +117,10 @@ struct OtherArm {
     name: String,
     /// Its base frame in this arm's base frame.
     base: Isometry3<f64>,
-    /// (stamp s, link poses in its base frame) of its newest and previous joint states.
-    newest: Option<(f64, LinkPoses)>,
-    previous: Option<(f64, LinkPoses)>,
+    /// (stamp s, joint positions rad) of its newest and previous joint states. Kept as joints:
+    /// they come at 1 kHz, the distances that need link poses at 30 Hz.
+    newest: Option<(f64, JointVector)>,
+    previous: Option<(f64, JointVector)>,
 }
 
 /// One known object in the newest report.
@@ -135,15 +136,16 @@ struct Known {
 
 impl OtherArm {
     /// Velocity (m/s, this arm's base frame) of the point of link `link` now at `p`, from the
-    /// last two joint states (zero without two within 0.5 s).
-    fn point_velocity(&self, link: usize, p: &Point3<f64>) -> Vector3<f64> {
-        let (Some((t, now)), Some((t0, before))) = (&self.newest, &self.previous) else { return Vector3::zeros() };
+    /// last two joint states (zero without two within 0.5 s); `now` is the newest one's link
+    /// poses.
+    fn point_velocity(&self, model: &RobotModel, now: &LinkPoses, link: usize, p: &Point3<f64>) -> Vector3<f64> {
+        let (Some((t, _)), Some((t0, q0))) = (&self.newest, &self.previous) else { return Vector3::zeros() };
         let dt = t - t0;
         if !(dt > 0.0 && dt <= 0.5) {
             return Vector3::zeros();
         }
         let local = (self.base * now.get(link)).inverse_transform_point(p);
-        (p - self.base * before.get(link) * local) / dt
+        (p - self.base * model.link_pose(q0, link) * local) / dt
     }
 }
 
@@ -202,9 +204,7 @@ impl SceneObjects {
         if !stamp.is_finite() || other.newest.as_ref().is_some_and(|(t, _)| stamp <= *t) {
             return;
         }
-        let mut poses = LinkPoses::new();
-        others.model.forward_kinematics(q, &mut poses);
-        other.previous = other.newest.replace((stamp, poses));
+        other.previous = other.newest.replace((stamp, *q));
     }
 
     /// Obstacle points in an object's shadow seen from `camera` (base frame) are that object's.
@@ -302,25 +302,35 @@ impl SceneObjects {
     /// of `d.stamp`, and gives them that link point's velocity. Returns how many.
     fn mark_other_arms(&self, d: &mut Distances) -> usize {
         let Some(others) = self.others.as_ref() else { return 0 };
+        // Link poses of each arm whose newest joint state is within `max_age_s` of the distances.
+        let poses: Vec<Option<LinkPoses>> = others
+            .arms
+            .iter()
+            .map(|arm| {
+                let (t, q) = arm.newest.as_ref()?;
+                let age = (t - d.stamp).abs();
+                (age <= self.max_age_s).then(|| {
+                    let mut poses = LinkPoses::new();
+                    others.model.forward_kinematics(q, &mut poses);
+                    poses
+                })
+            })
+            .collect();
         let mut n = 0;
         for (link, mark) in d.links.iter_mut().zip(d.scene_object.iter_mut()).take(d.count) {
             if !link.valid || !link.obstacle_point.iter().all(|v| v.is_finite()) {
                 continue;
             }
             let p = Point3::from(link.obstacle_point);
-            for arm in &others.arms {
-                let Some((t, poses)) = arm.newest.as_ref() else { continue };
-                let age = (t - d.stamp).abs();
-                if age.is_nan() || age > self.max_age_s {
-                    continue;
-                }
+            for (arm, poses) in others.arms.iter().zip(&poses) {
+                let Some(poses) = poses else { continue };
                 let on = match others.hulls.nearest_link(&arm.base, poses, &p) {
                     Some((distance, l)) if distance <= self.margin_m => Some(l),
                     _ => self.camera.and_then(|c| others.hulls.link_on_segment(&arm.base, poses, &p, &c)),
                 };
                 let Some(l) = on else { continue };
                 *mark = true;
-                link.obstacle_velocity = arm.point_velocity(l, &p);
+                link.obstacle_velocity = arm.point_velocity(&others.model, poses, l, &p);
                 n += 1;
                 break;
             }
