@@ -18,8 +18,9 @@
 //! - `--arms dual`: two ingredients in each arm's area, drawn from the seed: both arms work.
 //!
 //! Judged from the simulated world only (both arms' `/lwr/world`, `/joint_states`): every
-//! ingredient was held over the pizza (its centre within [`OVER_PIZZA_RADIUS_M`] of the pizza's
-//! in x-y, its bottom 2–35 cm above the pizza) for at least [`OVER_PIZZA_S`], and is back upright
+//! ingredient was poured over the pizza ([`PourGeometry::pours_over`]: held tilted at least
+//! [`POUR_TILT_DEG`], its mouth over the pizza's disc, its lowest point 2–35 cm above the pizza)
+//! for at least [`OVER_PIZZA_S`], and is back upright
 //! within [`BACK_WITHIN_M`] of where it stood; the two arms' tools never both inside the central
 //! box at one `/lwr/world` sample (100 Hz of simulated time); no arm–arm contact (link hulls,
 //! [`cowork_sim::ArmHulls`]) and no link below the table top, checked at every joint state pair.
@@ -35,7 +36,7 @@ use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::topics::{self, Delivery};
 use cowork_robot::{JointVector, LinkPoses, RobotModel};
 use cowork_ros::{NodeConfig, RosNode, Subscription, shutdown};
-use cowork_sim::{ArmHulls, Scene};
+use cowork_sim::{ArmHulls, Scene, Shape};
 use cowork_synth::{Scenario, SynthOptions};
 use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
@@ -89,10 +90,45 @@ fn under_the_forearm(p: [f64; 2]) -> bool {
 /// Two ingredients stand at least this far apart (centres, m).
 const SPACING_M: f64 = 0.13;
 
-/// An ingredient is "over the pizza" with its centre this close to the pizza's in x-y, m.
-pub const OVER_PIZZA_RADIUS_M: f64 = 0.14;
-/// ... for at least this long, s.
+/// An ingredient pours with its axis at least this far from upright, deg (the demonstrator
+/// sprinkles at 80–89°).
+pub const POUR_TILT_DEG: f64 = 60.0;
+/// Its lowest point this high above the pizza's top, m: not touching it, not out of reach.
+pub const POUR_HEIGHT_M: (f64, f64) = (0.02, 0.35);
+/// It pours over the pizza for at least this long, s.
 pub const OVER_PIZZA_S: f64 = 1.0;
+
+/// What "poured over the pizza" is made of: the pizza's disc and an ingredient's bottle, both
+/// cylinders of the scene (world frame, m).
+#[derive(Debug, Clone, Copy)]
+struct PourGeometry {
+    /// The pizza's centre (x-y), radius and top (z).
+    pizza_xy: [f64; 2],
+    pizza_radius: f64,
+    pizza_top: f64,
+    /// The bottle's half height and radius.
+    bottle_half_height: f64,
+    bottle_radius: f64,
+}
+
+impl PourGeometry {
+    /// Whether a bottle at `pose` (world; its axis is its z, its mouth the top face's centre)
+    /// pours over the pizza: tilted at least [`POUR_TILT_DEG`], the mouth inside the pizza's disc
+    /// in x-y, the bottle's lowest point [`POUR_HEIGHT_M`] above the pizza's top. Judging the
+    /// centre's height as if the bottle stood upright (until 2026-12-06) counted a bottle tilted
+    /// 87° with its lowest point 6 cm above the pizza as "too low" for most of the pour.
+    fn pours_over(&self, pose: &Isometry3<f64>) -> bool {
+        let c = pose.translation.vector;
+        let axis = pose.rotation * Vector3::z();
+        let cos_tilt = axis.z.clamp(-1.0, 1.0);
+        let mouth = c + self.bottle_half_height * axis;
+        let lowest = c.z - self.bottle_half_height * cos_tilt.abs() - self.bottle_radius * (1.0 - cos_tilt * cos_tilt).sqrt();
+        let above = lowest - self.pizza_top;
+        cos_tilt.acos().to_degrees() >= POUR_TILT_DEG
+            && (mouth.x - self.pizza_xy[0]).hypot(mouth.y - self.pizza_xy[1]) <= self.pizza_radius
+            && (POUR_HEIGHT_M.0..=POUR_HEIGHT_M.1).contains(&above)
+    }
+}
 /// Back within this distance of where it stood (x-y, m), upright within [`UPRIGHT_DEG`].
 pub const BACK_WITHIN_M: f64 = 0.05;
 /// Largest tilt of an ingredient put back, deg.
@@ -109,7 +145,7 @@ pub struct IngredientOutcome {
     pub placed: [f64; 2],
     /// The arm that took it (none: never held).
     pub taken_by: Option<String>,
-    /// Time held over the pizza, simulated s.
+    /// Time poured over the pizza ([`PourGeometry::pours_over`]), simulated s.
     pub over_pizza_s: f64,
     /// At the end: distance from where it stood (x-y, m), tilt (deg), still held.
     pub end_offset_m: f64,
@@ -418,7 +454,8 @@ struct PizzaJudge {
     model: RobotModel,
     hulls: ArmHulls,
     bases: [Isometry3<f64>; 2],
-    pizza: Point3<f64>,
+    /// The pizza and each ingredient's bottle, for "poured over the pizza".
+    pour: BTreeMap<String, PourGeometry>,
     table_z: f64,
     /// The table top's x-y extent (world, m): a link below the table top elsewhere (behind the
     /// table, under the torso's shoulders) touches nothing.
@@ -451,13 +488,25 @@ impl PizzaJudge {
             let a = arms.iter().find(|a| a.name == name).with_context(|| format!("the scene has no arm `{name}`"))?;
             Ok(a.base.isometry())
         };
-        let pizza = scene.objects.iter().find(|o| o.name == "pizza").context("the scene has no pizza")?;
-        let p = pizza.pose.position;
+        let cylinder = |name: &str| -> Result<([f64; 3], f64, f64)> {
+            let o = scene.objects.iter().find(|o| o.name == name).with_context(|| format!("the scene has no `{name}`"))?;
+            match o.shape {
+                Shape::Cylinder { radius, height } => Ok((o.pose.position, radius, height / 2.0)),
+                _ => bail!("the scene's `{name}` is not a cylinder: the pizza judge needs the pizza's disc and the bottles' size"),
+            }
+        };
+        let (p, pizza_radius, pizza_half_height) = cylinder("pizza")?;
+        let mut pour = BTreeMap::new();
+        for name in start.keys() {
+            let (_, bottle_radius, bottle_half_height) = cylinder(name)?;
+            let g = PourGeometry { pizza_xy: [p[0], p[1]], pizza_radius, pizza_top: p[2] + pizza_half_height, bottle_half_height, bottle_radius };
+            pour.insert(name.clone(), g);
+        }
         Ok(Self {
             hulls: ArmHulls::new(&model),
             model,
             bases: [base("left")?, base("right")?],
-            pizza: Point3::new(p[0], p[1], p[2]),
+            pour,
             table_z: scene.table_top_z(),
             table_xy: {
                 let c = scene.table.pose.position;
@@ -510,11 +559,7 @@ impl PizzaJudge {
             }
             if self.held[arm].as_deref() == Some(o.name.as_str()) {
                 self.taken_by.entry(o.name.clone()).or_insert_with(|| ARMS[arm].to_owned());
-                let c = pose.translation.vector;
-                let horizontal = (c.x - self.pizza.x).hypot(c.y - self.pizza.y);
-                // Bottle centre 0.08 m above its bottom: bottom 2–35 cm above the pizza top.
-                let above = c.z - 0.08 - (self.pizza.z + 0.01);
-                if horizontal <= OVER_PIZZA_RADIUS_M && (0.02..=0.35).contains(&above) {
+                if self.pour.get(&o.name).is_some_and(|g| g.pours_over(&pose)) {
                     *self.over.entry(o.name.clone()).or_insert(0.0) += dt;
                 }
             }
@@ -573,7 +618,7 @@ impl PizzaJudge {
             if o.taken_by.is_none() {
                 why.push(format!("{name} never taken"));
             } else if over < OVER_PIZZA_S {
-                why.push(format!("{name} over the pizza only {over:.1} s"));
+                why.push(format!("{name} poured over the pizza only {over:.1} s"));
             }
             if held {
                 why.push(format!("{name} still held at the end"));
@@ -840,5 +885,35 @@ mod tests {
             assert!(under_the_forearm(blocked), "{blocked:?}");
         }
         assert!(!under_the_forearm([0.25, 0.53]) && !under_the_forearm([0.49, -0.52]));
+    }
+
+    /// A bottle whose centre is at `c` (world, m), its axis turned `tilt_deg` from upright
+    /// towards `towards` (a horizontal direction).
+    fn bottle(c: [f64; 3], tilt_deg: f64, towards: Vector3<f64>) -> Isometry3<f64> {
+        let axis = Vector3::z().cross(&towards).normalize();
+        Isometry3::from_parts(Translation3::new(c[0], c[1], c[2]), UnitQuaternion::from_scaled_axis(axis * tilt_deg.to_radians()))
+    }
+
+    #[test]
+    fn a_bottle_pours_over_the_pizza_tilted_with_its_mouth_over_the_disc() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        let scene = Scene::from_file(&root.join("config/scenes/pizza.yaml")).expect("scene");
+        let start: BTreeMap<String, [f64; 2]> = [("basil".to_owned(), [0.26, -0.48])].into();
+        let judge = PizzaJudge::new(&scene, RobotModel::from_urdf_file(root.join("config/robot/lwr4plus.urdf")).expect("model"), start).expect("judge");
+        let g = judge.pour["basil"];
+        assert_eq!((g.pizza_radius, g.pizza_top, g.bottle_half_height, g.bottle_radius), (0.14, 0.02, 0.08, 0.03));
+        // The right arm's basil of `--seed 3`, 2026-12-06: centre 11 cm above the table, tilted
+        // 87° towards +x, mouth 6 cm from the pizza's centre, lowest point 5.6 cm above the pizza.
+        // The old judge took the centre for an upright bottle's (bottom 1 cm under the pizza's
+        // top) and counted 1.0 s of a 12 s pour.
+        assert!(g.pours_over(&bottle([0.42, 0.027, 0.11], 87.0, Vector3::x())));
+        // Upright over the pizza: held there, not pouring.
+        assert!(!g.pours_over(&bottle([0.45, 0.0, 0.20], 0.0, Vector3::x())));
+        // Tilted, but the mouth beyond the disc's edge (pours onto the table).
+        assert!(!g.pours_over(&bottle([0.45, -0.20, 0.15], 85.0, -Vector3::y())));
+        // Tilted over the centre with its side on the pizza.
+        assert!(!g.pours_over(&bottle([0.45, 0.0, 0.05], 88.0, Vector3::x())));
+        // Far above.
+        assert!(!g.pours_over(&bottle([0.45, 0.0, 0.60], 88.0, Vector3::x())));
     }
 }
