@@ -8,7 +8,9 @@
 # --execute TASK: the robot carries out TASK (pourDrink, prepareCoffee, ...) with what was learned
 #   in DIR (default config/learned, written by launch_scripts/teach.sh): the LTM
 #   DIR/kitchen.learned.schema and a copy of the primitive database DIR/primitives (DIR itself
-#   is never written). Steer it with `cowork say stop|repeat|human add(water)`.
+#   is never written). Steer it with `cowork say stop|repeat|human add(water)`. With --arms:
+#   --execute pizza, DIR default config/learned-pizza (teach.sh --task pizza), its LTM
+#   DIR/pizza.learned.schema and one database per arm in DIR/primitives.
 # Otherwise (teaching, --teach TASK, default pourDrink): the supervisor allocates TASK from
 #   STATE/kitchen.learned.schema when teaching has written one, else from
 #   config/tasks/kitchen.schema; what it learns (LTM, STATE/primitives) is saved to STATE again
@@ -30,7 +32,7 @@ logs=out/logs
 scene=config/scenes/kitchen.yaml
 task=pourDrink
 execute=
-learned_dir=config/learned
+learned_dir=
 state_dir=out
 bridge=
 bridge_port=8765
@@ -57,10 +59,13 @@ done
 if grep -q '^arms:' "$scene" && [[ ${#arms[@]} -eq 0 ]]; then
   echo "graph.sh: $scene has named arms: give them with --arms (e.g. --arms \"left right\")" >&2; exit 2
 fi
+learned_ltm=kitchen.learned.schema
 if [[ ${#arms[@]} -gt 0 ]]; then
   [[ $task == pourDrink ]] && task=pizza
-  [[ -n $execute ]] && { echo "graph.sh: --execute with --arms: nothing learned for two arms is bundled yet" >&2; exit 2; }
+  learned_dir=${learned_dir:-config/learned-pizza}
+  learned_ltm=pizza.learned.schema
 fi
+learned_dir=${learned_dir:-config/learned}
 
 bin=target/release
 for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controller robot_manager ${bridge:+cowork}; do
@@ -69,11 +74,15 @@ done
 mkdir -p "$logs"
 if [[ -n $execute ]]; then
   # What the robot runs: the learned LTM, and a fresh copy of the primitive database.
-  ltm=$learned_dir/kitchen.learned.schema
-  [[ -f $ltm && -f $learned_dir/primitives/lwr.primitives.json ]] || {
-    echo "graph.sh: nothing learned in $learned_dir (run launch_scripts/teach.sh, or give --learned DIR)" >&2; exit 1; }
+  ltm=$learned_dir/$learned_ltm
+  databases=(lwr)
+  [[ ${#arms[@]} -gt 0 ]] && databases=("${arms[@]/#/lwr_}")
+  for d in "${databases[@]}"; do
+    [[ -f $ltm && -f $learned_dir/primitives/$d.primitives.json ]] || {
+      echo "graph.sh: nothing learned in $learned_dir ($ltm, primitives/$d.primitives.json; run launch_scripts/teach.sh${arms:+ --task pizza}, or give --learned DIR)" >&2; exit 1; }
+  done
   database=out/execute/primitives
-  save_ltm=out/execute/kitchen.learned.schema
+  save_ltm=out/execute/$learned_ltm
   rm -rf out/execute && mkdir -p out/execute && cp -r "$learned_dir/primitives" "$database"
 else
   # A restart keeps what was taught: the learned LTM when there is one.

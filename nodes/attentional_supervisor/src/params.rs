@@ -61,7 +61,7 @@ pub struct CentralBox {
 
 impl Default for CentralBox {
     /// The pizza of `config/scenes/pizza.yaml` (centre (0.45, 0), radius 0.14 m) with a margin;
-    /// its ingredient bottles (|y| = 0.38 m) lie outside.
+    /// its ingredient bottles (|y| ≥ 0.29 m, `cowork experiment pizza`) lie outside.
     fn default() -> Self {
         Self { x: [0.2, 0.7], y: [-0.2, 0.2] }
     }

@@ -621,6 +621,10 @@ impl DsNode {
                         ),
                     ));
                 }
+                // The joints when the frame was taken (the newest, if that close to its stamp).
+                if let Some((q, _)) = self.rt.joints.filter(|(_, t)| (t - d.stamp).abs() <= self.scene_max_age_s) {
+                    self.scene.mark_table(&mut d, &q);
+                }
                 mark_handover_goal(&mut d, &self.rt.command);
                 self.rt.distances = d;
                 self.rt.distances_rejected = None;

@@ -200,6 +200,9 @@ pub fn run(node: RosNode, model: RobotModel, params: &Params, options: &RunOptio
             format!(", and the other arms {} from their joint states", other_arms.iter().map(|a| format!("/{a}")).collect::<Vec<_>>().join(", "))
         }
     );
+    if params.scene_objects.keep_off_table {
+        tracing::info!("link damper: the links keep off the table top of {} (fDED does not see it)", params.scene_objects.scene);
+    }
     let t = &params.controller.ttc;
     if t.enabled {
         tracing::info!(

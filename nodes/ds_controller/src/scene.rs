@@ -38,6 +38,14 @@
 //! its velocity is that link point's, from the last two joint states. Joint states further
 //! than `max_age_s` from the distances' stamp: the other arm is unknown (the full distances).
 //!
+//! **The table top.** fDED removes the table plane from the depth image (the task works on
+//! it), so no obstacle point ever lies on the table and nothing kept the links off it: in
+//! `cowork experiment pizza --arms uni` seed 2 (2026-12-06) the wrist went 10 cm below the top
+//! reaching for a bottle next to the shoulder. With `keep_off_table` each link's lowest hull
+//! point over the table's footprint (at the joint state nearest the distances' stamp) becomes
+//! its obstacle point, a known object (stop 3 cm), whenever the table is closer than what fDED
+//! saw; the tool's own links near the tool stay free to grasp (the damper's `hand_radius`).
+//!
 //! Fail closed: no report, a report further than `max_age_s` from the distances' stamp, one in
 //! another frame or with a non-finite pose, an object whose name has no shape: nothing is
 //! known, every obstacle gets the damper's full (person) distances.
@@ -65,11 +73,14 @@ pub struct SceneObjectsParams {
     pub margin_m: f64,
     /// A `/lwr/world` report is used only for distances stamped within this time of it, s.
     pub max_age_s: f64,
+    /// Keep the links off the scene's table top (module docs): it becomes a link's obstacle
+    /// where it is closer than fDED's.
+    pub keep_off_table: bool,
 }
 
 impl Default for SceneObjectsParams {
     fn default() -> Self {
-        Self { scene: String::new(), margin_m: 0.04, max_age_s: 0.2 }
+        Self { scene: String::new(), margin_m: 0.04, max_age_s: 0.2, keep_off_table: false }
     }
 }
 
@@ -101,7 +112,25 @@ pub struct SceneObjects {
     world: Option<(f64, Vec<Known>)>,
     /// The scene's other arms (none in a single-arm scene).
     others: Option<OtherArms>,
+    /// The table top this arm's links keep off (`keep_off_table`).
+    table: Option<TableTop>,
 }
+
+/// The scene's table top and this arm, for keeping its links off it.
+#[derive(Debug, Clone)]
+struct TableTop {
+    /// World ← this arm's base.
+    world_from_base: Isometry3<f64>,
+    /// Height of the top (world z, m) and its footprint (world x and y ranges, m).
+    top_z: f64,
+    x: (f64, f64),
+    y: (f64, f64),
+    model: RobotModel,
+    hulls: ArmHulls,
+}
+
+/// Links before this one stand on their mount (the base and the first link): never the table's.
+const FIRST_TABLE_LINK: usize = 2;
 
 /// The other arms of the scene and their newest joint states.
 #[derive(Debug, Clone)]
@@ -156,6 +185,10 @@ impl SceneObjects {
         let mut shapes = HashMap::new();
         let mut camera = None;
         let mut others = Vec::new();
+        let mut table = None;
+        if p.keep_off_table && p.scene.is_empty() {
+            anyhow::bail!("ds_controller parameters: `scene_objects.keep_off_table` needs `scene_objects.scene` (where the table is)");
+        }
         if !p.scene.is_empty() {
             let path = Path::new(&p.scene);
             let scene = cowork_sim::Scene::from_file(path)
@@ -173,9 +206,22 @@ impl SceneObjects {
             for arm in scene.arm_setups().into_iter().filter(|a| a.name != own) {
                 others.push((arm.name, base.inverse() * arm.base.isometry()));
             }
+            if p.keep_off_table {
+                let c = scene.table.pose.position;
+                let size = scene.table.size;
+                table = Some(TableTop {
+                    world_from_base: base,
+                    top_z: scene.table_top_z(),
+                    x: (c[0] - size[0] / 2.0, c[0] + size[0] / 2.0),
+                    y: (c[1] - size[1] / 2.0, c[1] + size[1] / 2.0),
+                    model: model.clone(),
+                    hulls: ArmHulls::new(model),
+                });
+            }
             shapes.extend(scene.objects.into_iter().map(|o| (o.name, o.shape)));
         }
         let mut known = Self::new(shapes, p.margin_m, p.max_age_s, base_frame).with_camera(camera);
+        known.table = table;
         if !others.is_empty() {
             known = known.with_other_arms(model, others);
         }
@@ -215,7 +261,7 @@ impl SceneObjects {
 
     /// With `shapes` by object name.
     pub fn new(shapes: HashMap<String, Shape>, margin_m: f64, max_age_s: f64, base_frame: &str) -> Self {
-        Self { shapes, margin_m, max_age_s, base_frame: base_frame.to_owned(), camera: None, world: None, others: None }
+        Self { shapes, margin_m, max_age_s, base_frame: base_frame.to_owned(), camera: None, world: None, others: None, table: None }
     }
 
     /// Number of objects with a known shape.
@@ -226,6 +272,44 @@ impl SceneObjects {
     /// Whether anything can be known: an object shape or another arm.
     pub fn any(&self) -> bool {
         !self.shapes.is_empty() || self.others.is_some()
+    }
+
+    /// Whether the links keep off the table top ([`SceneObjects::mark_table`]).
+    pub fn keeps_off_table(&self) -> bool {
+        self.table.is_some()
+    }
+
+    /// Makes the table top the obstacle of every link (from the second moving link on) whose
+    /// lowest hull point over the table's footprint is closer to the top than its obstacle in
+    /// `d` (or that has none): the obstacle point is straight below on the top, the normal
+    /// up, the velocity zero, and the link marked as on a known object. `q` (rad) are this
+    /// arm's joints when `d` was measured. Returns how many links; 0 without `keep_off_table`.
+    pub fn mark_table(&self, d: &mut Distances, q: &JointVector) -> usize {
+        let Some(t) = &self.table else { return 0 };
+        let mut poses = LinkPoses::new();
+        t.model.forward_kinematics(q, &mut poses);
+        let base_from_world = t.world_from_base.inverse();
+        let up = base_from_world.rotation * Vector3::z();
+        let over = |p: &Point3<f64>| (t.x.0..=t.x.1).contains(&p.x) && (t.y.0..=t.y.1).contains(&p.y);
+        let mut n = 0;
+        let count = d.count.min(d.links.len());
+        for l in FIRST_TABLE_LINK..count {
+            let Some(low) = t.hulls.lowest_point(&t.world_from_base, &poses, l, over) else { continue };
+            let height = low.z - t.top_z;
+            let link = &mut d.links[l];
+            if link.valid && link.distance <= height {
+                continue;
+            }
+            link.valid = true;
+            link.distance = height.max(0.0);
+            link.robot_point = base_from_world * low;
+            link.obstacle_point = base_from_world * Point3::new(low.x, low.y, t.top_z);
+            link.normal = up;
+            link.obstacle_velocity = Vector3::zeros();
+            d.scene_object[l] = true;
+            n += 1;
+        }
+        n
     }
 
     /// A `/lwr/world` report. One in another frame, with a non-finite stamp or pose is
@@ -531,5 +615,56 @@ mod tests {
         let mut late = distances(1.31, &[[moved.x, moved.y, moved.z]]);
         s.mark(&mut late);
         assert!(!late.scene_object[0]);
+    }
+
+    #[test]
+    fn the_links_keep_off_the_table_top_where_it_is_closer_than_fded_saw() {
+        let model = lwr();
+        let off = SceneObjects::from_params(&scene_params("pizza.yaml"), "left/lwr_base_link", &model).expect("pizza scene");
+        assert!(!off.keeps_off_table(), "off by default");
+        let on_params = SceneObjectsParams { keep_off_table: true, ..scene_params("pizza.yaml") };
+        let on = SceneObjects::from_params(&on_params, "left/lwr_base_link", &model).expect("pizza scene");
+        assert!(on.keeps_off_table());
+        let no_scene = SceneObjectsParams { keep_off_table: true, ..Default::default() };
+        assert!(SceneObjects::from_params(&no_scene, "b", &model).is_err_and(|e| format!("{e:#}").contains("keep_off_table")));
+
+        let scene = cowork_sim::Scene::from_file(Path::new(&on_params.scene)).expect("scene");
+        let base = scene.arms[0].base.isometry();
+        let n = model.link_count();
+        // `uni` seed 2, 2026-12-06, 48 s: reaching for the cheese at (0.255, 0.528) next to the
+        // shoulder, the wrist 4 cm below the table top.
+        let q = JointVector::from_row_slice(&[0.6559, 1.7409, -0.8627, -1.0146, -2.0174, -2.0919, 0.2808]);
+        let mut d = Distances::clear(1.0);
+        d.count = n;
+        let far = LinkDistance { valid: true, distance: 0.1, normal: Vector3::x(), ..LinkDistance::NONE };
+        d.links[..n].fill(far);
+        d.links[3] = LinkDistance { distance: 0.01, ..far };
+        let marked = on.mark_table(&mut d, &q);
+        let mut poses = LinkPoses::new();
+        model.forward_kinematics(&q, &mut poses);
+        let hulls = ArmHulls::new(&model);
+        let below: Vec<usize> = (2..n)
+            .filter(|&l| hulls.lowest_point(&base, &poses, l, |_| true).is_some_and(|p| p.z < 0.0))
+            .collect();
+        assert!(!below.is_empty(), "the recorded reach has links below the top");
+        assert!(marked >= below.len(), "{marked} marked, {below:?} below the top");
+        let up = base.inverse().rotation * Vector3::z();
+        for &l in &below {
+            let o = &d.links[l];
+            assert!(o.valid && d.scene_object[l] && o.distance == 0.0, "link {l}: {o:?}");
+            assert!((o.normal - up).norm() < 1e-9, "the table pushes up (the world's z in the arm's base frame)");
+            let (robot, table) = (base * o.robot_point, base * o.obstacle_point);
+            assert!(robot.z < 0.0 && table.z.abs() < 1e-9 && (robot.xy() - table.xy()).norm() < 1e-9, "{robot} over {table}");
+        }
+        assert_eq!(d.links[3].distance, 0.01, "fDED's nearer obstacle kept");
+        assert!(!d.scene_object[0] && !d.scene_object[1] && d.links[0].distance == 0.1, "the base and the first link stand on their mount");
+
+        // At the start joints every link is well above the table: fDED's 10 cm stay.
+        let q0 = JointVector::from_iterator(scene.arms[0].initial_joints_deg.iter().map(|d| d.to_radians()));
+        let mut d0 = Distances::clear(1.0);
+        d0.count = n;
+        d0.links[..n].fill(far);
+        assert_eq!(on.mark_table(&mut d0, &q0), 0);
+        assert_eq!(off.mark_table(&mut d, &q), 0, "off: nothing");
     }
 }

@@ -33,9 +33,18 @@ pub fn load(params: &Params, place: &str) -> Result<Option<(Previewer, Vec<Strin
     let scene = Scene::from_file(&scene_path).with_context(|| format!("{place}: `preview.scene`"))?;
     let block: ControllerBlock = cowork_ros::params::load(std::path::Path::new(&p.controller_params), "ds_controller")
         .with_context(|| format!("{place}: `preview.controller_params`"))?;
+    // The world's up in this arm's base frame: the arm of the node's namespace (`/left` is arm
+    // `left`), or the single arm of a scene without named arms.
+    let namespace = cowork_ros::ros_args().namespace.as_deref().unwrap_or_default();
+    let arm = namespace.trim_matches('/').rsplit('/').next().unwrap_or_default();
+    let prefix = if arm.is_empty() { String::new() } else { format!("{arm}/") };
+    let base = scene
+        .arm_base_for_prefix(&prefix)
+        .with_context(|| format!("{place}: `preview.scene` {} has no arm for the namespace {namespace:?}", scene_path.display()))?;
     let shapes = scene.objects.iter().map(|o| (o.name.clone(), o.shape));
     let previewer = Previewer::new(model.clone(), block.controller, shapes, params.manager.turn.step_s)
-        .map_err(|e| anyhow::anyhow!("{place}: `preview.controller_params` {}: {e}", p.controller_params))?;
+        .map_err(|e| anyhow::anyhow!("{place}: `preview.controller_params` {}: {e}", p.controller_params))?
+        .with_up(base.inverse().rotation * nalgebra::Vector3::z());
     tracing::info!(
         "motion preview on: {} may be turned up to ±{}° to keep the arm {} m from the other objects",
         params.manager.turn.objects.join(", "),

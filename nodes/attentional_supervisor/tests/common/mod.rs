@@ -34,13 +34,13 @@ pub const BASES: [Base; 2] = [LEFT, RIGHT];
 
 /// The objects of config/scenes/pizza.yaml (`objects:`, world positions, m), written out as the
 /// bases (two_arms.rs checks them against the file): the pizza in the middle of the table,
-/// tomato and oil at y = +0.38 (left), cheese and basil at y = -0.38 (right).
+/// tomato and oil at y = +0.50 (left), cheese and basil at y = -0.50 (right).
 pub const OBJECTS: [(&str, [f64; 3]); 5] = [
     ("pizza", [0.45, 0.0, 0.01]),
-    ("tomato", [0.42, 0.38, 0.08]),
-    ("oil", [0.60, 0.38, 0.08]),
-    ("cheese", [0.42, -0.38, 0.08]),
-    ("basil", [0.60, -0.38, 0.08]),
+    ("tomato", [0.30, 0.50, 0.08]),
+    ("oil", [0.50, 0.50, 0.08]),
+    ("cheese", [0.30, -0.50, 0.08]),
+    ("basil", [0.50, -0.50, 0.08]),
 ];
 
 /// R = Rz(yaw) Ry(pitch) Rx(roll), row-major: written out here, apart from the node's

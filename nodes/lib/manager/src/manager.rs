@@ -412,9 +412,12 @@ impl Manager {
     }
 
     /// Keeps [`Self::scene_objects`]: an object rests when it has moved less than 5 mm and 3°
-    /// for [`REST_S`] and stands within 15° of upright (one never seen moving rests).
+    /// for [`REST_S`] and stands within 15° of upright (one never seen moving rests). Upright is
+    /// the world's up ([`Previewer::up`]): the base's z of a shoulder-mounted arm is horizontal,
+    /// and judged by it no pizza bottle ever stood, so no preview saw one.
     fn note_rest(&mut self, r: &WorldReport) {
         self.scene_objects.clear();
+        let up = self.previewer.as_ref().map_or_else(nalgebra::Vector3::z, Previewer::up);
         for o in &r.objects {
             let anchor = self.rest.entry(o.name.clone()).or_insert((o.pose, f64::NEG_INFINITY));
             let moved = (o.pose.translation.vector - anchor.0.translation.vector).norm() > 0.005
@@ -422,7 +425,7 @@ impl Manager {
             if moved || r.t < anchor.1 {
                 *anchor = (o.pose, r.t);
             }
-            let upright = (o.pose.rotation * nalgebra::Vector3::z()).z >= 15f64.to_radians().cos();
+            let upright = (o.pose.rotation * nalgebra::Vector3::z()).dot(&up) >= 15f64.to_radians().cos();
             self.scene_objects.push((o.name.clone(), o.pose, upright && r.t - anchor.1 >= REST_S));
         }
     }
@@ -839,8 +842,21 @@ impl Manager {
         // seed 7's pour for 120 s.
         let passable = |r: &(crate::turn::PreviewRun, String)| r.0.clearance_m >= 0.5 * cfg.clearance_m;
         let rank = |r: &(crate::turn::PreviewRun, String)| (r.0.reached, passable(r), supple(r), r.0.clearance_m);
-        let Some(first) = preview(last) else { return turned(&object_pose, last) };
+        let describe = |(r, label): &(crate::turn::PreviewRun, String)| {
+            let near = r.closest.as_ref().map_or(String::new(), |(l, o)| format!(" ({l} at {o})"));
+            format!(
+                "{label} {}, clearance {:.3} m{near}, joint margin {:.0}°",
+                if r.reached { "reaches".to_owned() } else { format!("{:.3} m short", r.tool_error_m) },
+                r.clearance_m,
+                r.joint_margin_rad.to_degrees()
+            )
+        };
+        let Some(first) = preview(last) else {
+            out.push(Output::Warn(format!("{}: {} not previewed (no rollout or goal for its chain): kept at {:+.0}°", run.label, run.object, last.to_degrees())));
+            return turned(&object_pose, last);
+        };
         if clear(&first) {
+            out.push(Output::Info(format!("{}: {} kept at {:+.0}° ({})", run.label, run.object, last.to_degrees(), describe(&first))));
             self.turns.insert(run.object.clone(), last);
             return turned(&object_pose, last);
         }
@@ -855,15 +871,6 @@ impl Manager {
                 break;
             }
         }
-        let describe = |(r, label): &(crate::turn::PreviewRun, String)| {
-            let near = r.closest.as_ref().map_or(String::new(), |(l, o)| format!(" ({l} at {o})"));
-            format!(
-                "{label} {}, clearance {:.3} m{near}, joint margin {:.0}°",
-                if r.reached { "reaches".to_owned() } else { format!("{:.3} m short", r.tool_error_m) },
-                r.clearance_m,
-                r.joint_margin_rad.to_degrees()
-            )
-        };
         let (turn, chosen) = best;
         if (turn - last).abs() > 1e-9 {
             out.push(Output::Info(format!(

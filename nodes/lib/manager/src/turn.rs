@@ -220,6 +220,9 @@ pub struct Previewer {
     /// Per link: sampled mesh vertices (link frame), the centre and radius of a sphere
     /// holding them.
     links: Vec<(Vec<Point3<f64>>, Point3<f64>, f64)>,
+    /// The world's up in the arm's base frame (unit): the z axis for an arm standing on the
+    /// table, the world's z turned into a shoulder-mounted arm's base frame.
+    up: Vector3<f64>,
 }
 
 /// Sampled vertices per link.
@@ -267,7 +270,21 @@ impl Previewer {
                 (pts, centre, radius)
             })
             .collect();
-        Ok(Self { model, controller, fresh, colliders, links })
+        Ok(Self { model, controller, fresh, colliders, links, up: Vector3::z() })
+    }
+
+    /// With the world's up `up` in the arm's base frame (normalised; a zero or non-finite
+    /// vector leaves the base's z): objects stand upright along it.
+    pub fn with_up(mut self, up: Vector3<f64>) -> Self {
+        if let Some(u) = up.try_normalize(1e-9).filter(|u| u.iter().all(|v| v.is_finite())) {
+            self.up = u;
+        }
+        self
+    }
+
+    /// The world's up in the arm's base frame (unit).
+    pub fn up(&self) -> Vector3<f64> {
+        self.up
     }
 
     /// Whether the shape of scene object `name` is known.

@@ -141,3 +141,40 @@ fn the_cup_frame_turns_away_from_a_bottle_put_back_beside_the_cup() {
     assert!(turn.abs() < 0.5, "a bottle being poured is not avoided: turned {turn}°");
 }
 
+
+/// "Upright" is the world's up in the arm's base frame (`Previewer::with_up`): for an arm on a
+/// shoulder (the pizza's, base z horizontal) a standing bottle lies along the base's y, and
+/// judged by the base's z no bottle ever rested, so no preview avoided one (`cowork experiment
+/// pizza --arms uni` seed 2: "kept at +0° … clearance 1.000 m" while the pour held the forearm
+/// 3 cm above the basil).
+#[test]
+fn objects_stand_upright_along_the_worlds_up() {
+    let k = kitchen();
+    let q = holding_the_jar(&k);
+    // The bottle with its axis along the base's +y, beside the cup.
+    let along_y = Isometry3::new(Vector3::new(0.50, 0.28, 0.11), Vector3::x() * (-90f64).to_radians());
+    assert!(((along_y.rotation * Vector3::z()) - Vector3::y()).norm() < 1e-12);
+    let kept_or_turned = |up: Vector3<f64>| -> String {
+        let mut m = Manager::new(ManagerConfig::default(), k.db.clone());
+        let previewer = Previewer::new(k.model.clone(), controller(), k.scene.objects.iter().map(|o| (o.name.clone(), o.shape)), 0.005).expect("previewer");
+        m.set_previewer(previewer.with_up(up));
+        let mut w = world(&k, &q, along_y);
+        w.objects.retain(|o| ["cup", "coffee", "bottle"].contains(&o.name.as_str()));
+        let now = Stamp { t: 10.0, unix_s: 0 };
+        let mut out = Vec::new();
+        m.handle(&Input::Joints { t: 10.0, q }, now, &mut out);
+        m.handle(&Input::World(w), now, &mut out);
+        out.clear();
+        m.handle(&Input::Action(ActionRequest { id: 1, label: "foa12(cup)".into(), stop: false }), now, &mut out);
+        out.iter()
+            .find_map(|o| match o {
+                Output::Info(t) | Output::Warn(t) if t.starts_with("foa12(cup): cup") => Some(t.clone()),
+                _ => None,
+            })
+            .expect("the preview's verdict")
+    };
+    let base_z = kept_or_turned(Vector3::z());
+    assert!(base_z.contains("kept at +0°") && base_z.contains("clearance 1.000 m"), "tilted 90° from the base's z: not at rest, not avoided: {base_z}");
+    let world_up = kept_or_turned(Vector3::y());
+    assert!(world_up.contains("bottle"), "upright along the world's up: at rest, previewed against: {world_up}");
+}

@@ -219,16 +219,18 @@ impl ArmHulls {
     /// which stand on their mount, are left out: an arm–table contact is a lower link below the
     /// table top over the table.
     pub fn lowest_z(&self, base: &Isometry3<f64>, poses: &LinkPoses, from_link: usize, over: impl Fn(&Point3<f64>) -> bool) -> Option<(f64, usize)> {
-        self.hulls
-            .iter()
-            .enumerate()
-            .skip(from_link)
-            .filter_map(|(l, h)| {
-                let pose = base * poses.get(l);
-                let z = h.as_ref()?.points().iter().map(|p| pose * p).filter(|p| over(p)).map(|p| p.z).fold(f64::INFINITY, f64::min);
-                z.is_finite().then_some((z, l))
-            })
+        (from_link..self.hulls.len())
+            .filter_map(|l| Some((self.lowest_point(base, poses, l, &over)?.z, l)))
             .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// The lowest hull vertex of link `link` (in the base pose's frame, m) among those for which
+    /// `over` holds, of an arm at base pose `base` with link poses `poses` (its base frame);
+    /// `None` for a link without a mesh or with no such vertex.
+    pub fn lowest_point(&self, base: &Isometry3<f64>, poses: &LinkPoses, link: usize, over: impl Fn(&Point3<f64>) -> bool) -> Option<Point3<f64>> {
+        let hull = self.hulls.get(link)?.as_ref()?;
+        let pose = base * poses.get(link);
+        hull.points().iter().map(|p| pose * p).filter(|p| over(p)).min_by(|a, b| a.z.total_cmp(&b.z))
     }
 
     /// The closest pair of links of two different arms, each arm given by its base pose (a
