@@ -841,9 +841,7 @@ impl Manager {
         // stop), then the margin, then the clearance — a supple turn 1 cm from the bottle held
         // seed 7's pour for 120 s.
         let passable = |r: &(crate::turn::PreviewRun, String)| r.0.clearance_m >= 0.5 * cfg.clearance_m;
-        // Clearance in whole centimetres: a turn that gains millimetres is no better (the pizza's
-        // oil carry turned 90° for 2 mm, `cowork experiment pizza --arms uni` seed 2).
-        let rank = |r: &(crate::turn::PreviewRun, String)| (r.0.reached, passable(r), supple(r), (r.0.clearance_m * 100.0).floor() as i64);
+        let rank = |r: &(crate::turn::PreviewRun, String)| (r.0.reached, passable(r), supple(r), r.0.clearance_m);
         let describe = |(r, label): &(crate::turn::PreviewRun, String)| {
             let near = r.closest.as_ref().map_or(String::new(), |(l, o)| format!(" ({l} at {o})"));
             format!(
