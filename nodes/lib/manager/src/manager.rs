@@ -11,7 +11,7 @@ use crate::database::Database;
 use crate::label::Label;
 use crate::primitive::{MotionPlan, Primitive};
 use crate::segment::{ActionKind, GripperCommand, Note, Segment, Segmenter};
-use crate::turn::{PreviewPath, Previewer, turned};
+use crate::turn::{PreviewPath, Previewer, VIA_PASS_M, lifted_via, turned};
 use crate::world::{World, WorldReport};
 
 /// Teaching or executing.
@@ -171,6 +171,11 @@ struct Running {
     started: f64,
     motion_id: Option<u32>,
     stream: Option<Stream>,
+    /// The legs of a lifted motion still to send after the one running, next first.
+    legs: Vec<MotionPlan>,
+    /// The goal of the leg running while more follow: passing it within [`VIA_PASS_M`] starts
+    /// the next.
+    leg_goal: Option<Isometry3<f64>>,
 }
 
 /// A NOA being streamed: the rolled-out poses and how far the reference is.
@@ -388,6 +393,11 @@ impl Manager {
         self.world = Some(world);
         self.flush_teaching(now, out);
         self.stream_step(out);
+        if let (Some(cur), Some(w)) = (&self.current, &self.world)
+            && cur.leg_goal.is_some_and(|g| (w.tool.translation.vector - g.translation.vector).norm() <= VIA_PASS_M)
+        {
+            self.next_leg(out);
+        }
         self.reopen_empty_gripper(out);
         // A gripper action is done when the simulator reports it.
         let Some(cur) = self.current.clone() else { return };
@@ -623,6 +633,8 @@ impl Manager {
             started: now.t,
             motion_id: None,
             stream: None,
+            legs: Vec::new(),
+            leg_goal: None,
         };
         let label = match Label::parse(&a.label) {
             Ok(l) => l,
@@ -733,7 +745,7 @@ impl Manager {
             }
         };
         let (tool, world_t) = (world.tool, world.t);
-        let pose = self.turn_for(&run, pose, out);
+        let (pose, vias) = self.shape_motion(&run, pose, out);
         if self.cfg.noa_execution == NoaExecution::Stream
             && run.kind == ActionKind::Noa
             && let Some(p) = run.primitive.as_ref()
@@ -754,34 +766,47 @@ impl Manager {
             Some(Err(e)) => return self.fail(&run, e.to_string(), out),
             None => return self.fail(&run, "no primitive".into(), out),
         };
+        // A lifted motion: a linear DS to each via point in turn, then the plan.
+        let plan = match (&plan, vias.first()) {
+            (MotionPlan::Linear { gain, .. }, Some(first)) => {
+                run.legs = vias[1..].iter().map(|v| MotionPlan::Linear { goal: *v, gain: *gain }).chain([plan.clone()]).collect();
+                run.leg_goal = Some(*first);
+                MotionPlan::Linear { goal: *first, gain: *gain }
+            }
+            _ => plan,
+        };
         run.motion_id = Some(self.send(run.label.clone(), Some(plan), out));
         Self::report(out, &run, false, false, String::new());
         self.current = Some(run);
     }
 
     /// The frame `object_pose` of `run`'s object, turned about its axis when the object is
-    /// round (`turn.objects`), a previewer and fresh joints are there, and the taught yaw's
-    /// preview does not reach the goal with the clearance (`crate::turn`); says why it turned.
-    fn turn_for(&mut self, run: &Running, object_pose: Isometry3<f64>, out: &mut Vec<Output>) -> Isometry3<f64> {
+    /// round (`turn.objects`), and the via points of a lifted motion when the action is a
+    /// linear FOA and `turn.lift_m` names heights — both chosen by previewing the motion
+    /// (`crate::turn`) when the taught one does not reach the goal with the clearance (a
+    /// previewer and fresh joints needed); says why it turned or lifted.
+    fn shape_motion(&mut self, run: &Running, object_pose: Isometry3<f64>, out: &mut Vec<Output>) -> (Isometry3<f64>, Vec<Isometry3<f64>>) {
         let (Some(previewer), Some(world), Some(p)) = (&self.previewer, &self.world, &run.primitive) else {
-            return object_pose;
+            return (object_pose, Vec::new());
         };
         let cfg = &self.cfg.turn;
-        if run.kind == ActionKind::Gripper || run.object == WORLD || !cfg.objects.contains(&run.object) {
-            return object_pose;
+        let turnable = run.kind != ActionKind::Gripper && run.object != WORLD && cfg.objects.contains(&run.object);
+        let liftable = run.kind == ActionKind::Foa && p.linear_gain.is_some() && !cfg.lift_m.is_empty();
+        if !turnable && !liftable {
+            return (object_pose, Vec::new());
         }
-        let last = self.turns.get(&run.object).copied().unwrap_or(0.0);
+        let last = if turnable { self.turns.get(&run.object).copied().unwrap_or(0.0) } else { 0.0 };
         let q0 = match self.joints {
             Some((t, q)) if (world.t - t).abs() <= cfg.max_joint_age_s => q,
             other => {
                 out.push(Output::Warn(format!(
-                    "{}: no joint positions within {} s of the world report ({}): not previewed, {} kept at its last turn",
+                    "{}: no joint positions within {} s of the world report ({}): not previewed, {} kept at its last turn, not lifted",
                     run.label,
                     cfg.max_joint_age_s,
                     other.map_or("none yet".to_owned(), |(t, _)| format!("{:.3} s apart", world.t - t)),
                     run.object
                 )));
-                return turned(&object_pose, last);
+                return (turned(&object_pose, last), Vec::new());
             }
         };
         // Every object at rest but the action's own and the held one is in the way (one that
@@ -794,11 +819,15 @@ impl Manager {
             .map(|(n, pose, _)| (n.as_str(), *pose))
             .collect();
         let chain = self.db.chain_after(p);
-        let preview = |turn: f64| -> Option<(crate::turn::PreviewRun, String)> {
+        let up = previewer.up();
+        let tol = cfg.reach_tolerance_m;
+        // The action (turned by `turn`, lifted by `lift` m) and the chain taught after it.
+        let preview = |turn: f64, lift: f64| -> Option<(crate::turn::PreviewRun, String, Vec<Isometry3<f64>>)> {
             let frame = turned(&object_pose, turn);
             let (mut q, mut tool) = (q0, world.tool);
             let mut all: Option<(crate::turn::PreviewRun, String)> = None;
-            for step in std::iter::once(p).chain(chain.iter().copied()) {
+            let mut vias = Vec::new();
+            for (i, step) in std::iter::once(p).chain(chain.iter().copied()).enumerate() {
                 let r = match step.kind {
                     ActionKind::Noa => {
                         let poses = step.rollout_poses(&frame, &tool, 0.01).ok().flatten()?;
@@ -808,11 +837,26 @@ impl Manager {
                             gain: self.cfg.stream_gain,
                             tracking: self.cfg.stream_tracking_m,
                         };
-                        previewer.run(&q, &path, &others, cfg.reach_tolerance_m)
+                        previewer.run(&q, &path, &others, tol)
+                    }
+                    _ if i == 0 && lift > 0.0 => {
+                        let (goal, gain) = (step.goal_at(&frame)?, step.linear_gain?);
+                        vias = lifted_via(&tool, &goal, up * lift).to_vec();
+                        let mut r: Option<crate::turn::PreviewRun> = None;
+                        for v in &vias {
+                            let leg = previewer.run(r.as_ref().map_or(&q, |r| &r.q_end), &PreviewPath::Via { goal: *v, gain, pass_m: VIA_PASS_M }, &others, tol);
+                            r = Some(match r {
+                                None => leg,
+                                Some(r) => r.then(leg),
+                            });
+                        }
+                        let r = r?;
+                        let last_leg = previewer.run(&r.q_end, &PreviewPath::Linear { goal, gain }, &others, tol);
+                        r.then(last_leg)
                     }
                     _ => {
                         let path = PreviewPath::Linear { goal: step.goal_at(&frame)?, gain: step.linear_gain? };
-                        previewer.run(&q, &path, &others, cfg.reach_tolerance_m)
+                        previewer.run(&q, &path, &others, tol)
                     }
                 };
                 (q, tool) = (r.q_end, r.tool_end);
@@ -830,19 +874,20 @@ impl Manager {
                     break;
                 }
             }
-            all
+            all.map(|(r, label)| (r, label, vias))
         };
+        type Previewed = (crate::turn::PreviewRun, String, Vec<Isometry3<f64>>);
         // The yaw in use is kept when it reaches with the clearance; a turn must also keep the
         // joints off their limits and the wrist off its singularity.
-        let clear = |r: &(crate::turn::PreviewRun, String)| r.0.reached && r.0.clearance_m >= cfg.clearance_m;
-        let supple = |r: &(crate::turn::PreviewRun, String)| r.0.joint_margin_rad >= cfg.joint_margin_deg.to_radians();
-        let good = |r: &(crate::turn::PreviewRun, String)| clear(r) && supple(r);
+        let clear = |r: &Previewed| r.0.reached && r.0.clearance_m >= cfg.clearance_m;
+        let supple = |r: &Previewed| r.0.joint_margin_rad >= cfg.joint_margin_deg.to_radians();
+        let good = |r: &Previewed| clear(r) && supple(r);
         // Failing that: reaching first, then passing (half the clearance: beyond the damper's
         // stop), then the margin, then the clearance — a supple turn 1 cm from the bottle held
         // seed 7's pour for 120 s.
-        let passable = |r: &(crate::turn::PreviewRun, String)| r.0.clearance_m >= 0.5 * cfg.clearance_m;
-        let rank = |r: &(crate::turn::PreviewRun, String)| (r.0.reached, passable(r), supple(r), r.0.clearance_m);
-        let describe = |(r, label): &(crate::turn::PreviewRun, String)| {
+        let passable = |r: &Previewed| r.0.clearance_m >= 0.5 * cfg.clearance_m;
+        let rank = |r: &Previewed| (r.0.reached, passable(r), supple(r), r.0.clearance_m);
+        let describe = |(r, label, _): &Previewed| {
             let near = r.closest.as_ref().map_or(String::new(), |(l, o)| format!(" ({l} at {o})"));
             format!(
                 "{label} {}, clearance {:.3} m{near}, joint margin {:.0}°",
@@ -851,42 +896,59 @@ impl Manager {
                 r.joint_margin_rad.to_degrees()
             )
         };
-        let Some(first) = preview(last) else {
+        let Some(first) = preview(last, 0.0) else {
             out.push(Output::Warn(format!("{}: {} not previewed (no rollout or goal for its chain): kept at {:+.0}°", run.label, run.object, last.to_degrees())));
-            return turned(&object_pose, last);
+            return (turned(&object_pose, last), Vec::new());
         };
         if clear(&first) {
             out.push(Output::Info(format!("{}: {} kept at {:+.0}° ({})", run.label, run.object, last.to_degrees(), describe(&first))));
-            self.turns.insert(run.object.clone(), last);
-            return turned(&object_pose, last);
-        }
-        let mut best = (last, first.clone());
-        for turn in cfg.candidates(last).into_iter().skip(1) {
-            let Some(r) = preview(turn) else { continue };
-            let better = rank(&r) > rank(&best.1);
-            if good(&r) || better {
-                best = (turn, r);
+            if turnable {
+                self.turns.insert(run.object.clone(), last);
             }
-            if good(&best.1) {
-                break;
+            return (turned(&object_pose, last), Vec::new());
+        }
+        let turns = if turnable { cfg.candidates(last) } else { vec![last] };
+        let mut best = (last, 0.0, first.clone());
+        'search: for lift in std::iter::once(0.0).chain(if liftable { cfg.lift_m.clone() } else { Vec::new() }) {
+            for &turn in &turns {
+                if turn == last && lift == 0.0 {
+                    continue;
+                }
+                let Some(r) = preview(turn, lift) else { continue };
+                if good(&r) || rank(&r) > rank(&best.2) {
+                    best = (turn, lift, r);
+                }
+                if good(&best.2) {
+                    break 'search;
+                }
             }
         }
-        let (turn, chosen) = best;
-        if (turn - last).abs() > 1e-9 {
+        let (turn, lift, chosen) = best;
+        if (turn - last).abs() > 1e-9 || lift > 0.0 {
+            let turned_by = if (turn - last).abs() > 1e-9 { format!(" turned {:+.0}° about its axis", turn.to_degrees()) } else { String::new() };
+            let lifted_by = if lift > 0.0 { format!(" lifted {lift:.2} m on the way") } else { String::new() };
             out.push(Output::Info(format!(
-                "{}: {} turned {:+.0}° about its axis (at {:+.0}°: {}; turned: {})",
+                "{}: {}{turned_by}{lifted_by} (at {:+.0}°: {}; now: {})",
                 run.label,
                 run.object,
-                turn.to_degrees(),
                 last.to_degrees(),
                 describe(&first),
                 describe(&chosen)
             )));
         } else {
-            out.push(Output::Warn(format!("{}: no turn of {} does better than {:+.0}° ({})", run.label, run.object, last.to_degrees(), describe(&first))));
+            out.push(Output::Warn(format!(
+                "{}: no turn{} of {} does better than {:+.0}° ({})",
+                run.label,
+                if liftable { " or lift" } else { "" },
+                run.object,
+                last.to_degrees(),
+                describe(&first)
+            )));
         }
-        self.turns.insert(run.object.clone(), turn);
-        turned(&object_pose, turn)
+        if turnable {
+            self.turns.insert(run.object.clone(), turn);
+        }
+        (turned(&object_pose, turn), chosen.2)
     }
 
     /// Advances a streamed NOA: the reference time moves with time while the tool tracks the
@@ -918,6 +980,24 @@ impl Manager {
         let goal = st.poses[st.sent].1;
         let (label, gain) = (cur.label.clone(), self.cfg.stream_gain);
         let id = self.send(label, Some(MotionPlan::Linear { goal, gain }), out);
+        if let Some(cur) = self.current.as_mut() {
+            cur.motion_id = Some(id);
+        }
+    }
+
+    /// Sends the next leg of a lifted motion (the via point passed or converged on).
+    fn next_leg(&mut self, out: &mut Vec<Output>) {
+        let Some(cur) = self.current.as_mut() else { return };
+        if cur.legs.is_empty() {
+            return;
+        }
+        let plan = cur.legs.remove(0);
+        cur.leg_goal = match &plan {
+            MotionPlan::Linear { goal, .. } if !cur.legs.is_empty() => Some(*goal),
+            _ => None,
+        };
+        let label = cur.label.clone();
+        let id = self.send(label, Some(plan), out);
         if let Some(cur) = self.current.as_mut() {
             cur.motion_id = Some(id);
         }
@@ -983,6 +1063,7 @@ impl Manager {
         let streaming_not_last = cur.stream.as_ref().is_some_and(|s| s.sent + 1 < s.poses.len());
         match m.state {
             MotionState::Converged if streaming_not_last => {}
+            MotionState::Converged if !cur.legs.is_empty() => self.next_leg(out),
             MotionState::Converged => {
                 self.current = None;
                 out.push(Output::Info(format!("{} done", cur.label)));

@@ -20,6 +20,14 @@
 //! object first, and the first that reaches with the clearance is taken, else the one that
 //! reaches with the most clearance (else the taught yaw).
 //!
+//! **Lift.** A carry learned as one straight line from the grasp (a linear FOA) starts at
+//! bottle height; with four bottles in one area another often stands on that line, and no
+//! turn of the pizza's frame moves the line's start. With `lift_m` heights given, when no turn
+//! reaches with the clearance a linear FOA is previewed lifted, for each height and turn: up
+//! by h from the tool, across to h above the goal, down onto the goal ([`lifted_via`]; each via
+//! point is left once the tool passes within [`VIA_PASS_M`]); the first that reaches with the
+//! clearance is taken, else the best ranked of all.
+//!
 //! Not previewed: people (they move; the damper and the DS modulation are for them), objects
 //! that moved within the last second or stand tilted (a bottle the person is pouring over the
 //! cup will be put back elsewhere), the table, the held object's own shape.
@@ -64,6 +72,13 @@ pub struct TurnConfig {
     /// Joint positions older than this (against the world report) are not previewed from, s:
     /// the action then runs with the taught yaw.
     pub max_joint_age_s: f64,
+    /// Heights a linear FOA (a carry, a put-back) may lift the tool by, m, each in (0, 0.5],
+    /// tried in order (with every turn) when no turn reaches the goal with the clearance: up
+    /// by h from where the tool is, across to h above the goal, down onto it ([`lifted_via`]).
+    /// A carry learned as one straight line from the grasp, at bottle height, runs through a
+    /// bottle standing between the grasp and the pizza (`cowork experiment pizza --arms uni`
+    /// seeds 6 and 9). Empty: never lifted.
+    pub lift_m: Vec<f64>,
 }
 
 impl Default for TurnConfig {
@@ -77,6 +92,7 @@ impl Default for TurnConfig {
             joint_margin_deg: 15.0,
             step_s: 0.005,
             max_joint_age_s: 0.5,
+            lift_m: Vec::new(),
         }
     }
 }
@@ -102,6 +118,9 @@ impl TurnConfig {
                 return Some((field, format!("{v} must be in (0, {hi}]")));
             }
         }
+        if let Some(h) = self.lift_m.iter().find(|h| !ok(**h, 0.0, 0.5)) {
+            return Some(("turn.lift_m", format!("{h} must be in (0, 0.5]")));
+        }
         None
     }
 
@@ -115,6 +134,20 @@ impl TurnConfig {
         turns.sort_by(|a, b| (a - last).abs().total_cmp(&(b - last).abs()).then(a.abs().total_cmp(&b.abs())));
         turns
     }
+}
+
+/// The tool passes a via point of a lifted motion ([`lifted_via`]) within this distance, m:
+/// the next leg starts there.
+pub const VIA_PASS_M: f64 = 0.03;
+
+/// The via points of a motion from `tool` to `goal` lifted by `lift` (the world's up times
+/// the height, base frame): `lift` above the tool with its orientation, then `lift` above the
+/// goal with the goal's.
+pub fn lifted_via(tool: &Isometry3<f64>, goal: &Isometry3<f64>, lift: Vector3<f64>) -> [Isometry3<f64>; 2] {
+    [
+        Isometry3::from_parts((tool.translation.vector + lift).into(), tool.rotation),
+        Isometry3::from_parts((goal.translation.vector + lift).into(), goal.rotation),
+    ]
 }
 
 /// The frame of an object at `pose` turned by `turn` rad about its own z axis.
@@ -144,13 +177,22 @@ pub enum PreviewPath<'a> {
         /// 1/s.
         gain: f64,
     },
+    /// A linear DS to a via point, left (reached) once the tool passes within `pass_m` of it.
+    Via {
+        /// Base frame.
+        goal: Isometry3<f64>,
+        /// 1/s.
+        gain: f64,
+        /// m.
+        pass_m: f64,
+    },
 }
 
 impl PreviewPath<'_> {
     fn end(&self) -> Isometry3<f64> {
         match self {
             PreviewPath::Stream { poses, .. } => poses.last().map_or_else(Isometry3::identity, |p| p.1),
-            PreviewPath::Linear { goal, .. } => *goal,
+            PreviewPath::Linear { goal, .. } | PreviewPath::Via { goal, .. } => *goal,
         }
     }
 }
@@ -301,14 +343,18 @@ impl Previewer {
             objects.iter().filter_map(|(n, p)| self.colliders.get(*n).map(|c| (*n, *p, c))).collect();
         let end = path.end();
         let gain = match path {
-            PreviewPath::Stream { gain, .. } | PreviewPath::Linear { gain, .. } => *gain,
+            PreviewPath::Stream { gain, .. } | PreviewPath::Linear { gain, .. } | PreviewPath::Via { gain, .. } => *gain,
+        };
+        let pass_m = match path {
+            PreviewPath::Via { pass_m, .. } => Some(*pass_m),
+            _ => None,
         };
         let (last_t, mut horizon) = match path {
             PreviewPath::Stream { poses, .. } => {
                 let t = poses.last().map_or(0.0, |p| p.0);
                 (t, 3.0 * t + SETTLE_S)
             }
-            PreviewPath::Linear { .. } => (0.0, 20.0),
+            PreviewPath::Linear { .. } | PreviewPath::Via { .. } => (0.0, 20.0),
         };
         horizon = horizon.min(120.0);
         let check_every = ((0.02 / dt).round() as usize).max(1);
@@ -339,8 +385,11 @@ impl Previewer {
                     }
                     rollout[sent].1
                 }
-                PreviewPath::Linear { goal, .. } => *goal,
+                PreviewPath::Linear { goal, .. } | PreviewPath::Via { goal, .. } => *goal,
             };
+            if pass_m.is_some_and(|pass| (tool.translation.vector - goal.translation.vector).norm() <= pass) {
+                break;
+            }
             if k.is_multiple_of(check_every) {
                 joint_margin = joint_margin.min(self.joint_margin(&q));
                 for (l, (pts, centre, radius)) in self.links.iter().enumerate() {
@@ -396,7 +445,7 @@ impl Previewer {
         let tool_error_m = (tool_end.translation.vector - end.translation.vector).norm();
         let closest = closest.map(|(l, n): (usize, &str)| (self.model.link_names().get(l).cloned().unwrap_or_default(), n.to_owned()));
         PreviewRun {
-            reached: tool_error_m <= reach_tolerance_m,
+            reached: tool_error_m <= pass_m.unwrap_or(reach_tolerance_m),
             tool_error_m,
             clearance_m: clearance,
             closest,
@@ -421,7 +470,7 @@ impl Previewer {
 fn sent_all(path: &PreviewPath<'_>, sent: usize) -> bool {
     match path {
         PreviewPath::Stream { poses, .. } => sent + 1 >= poses.len(),
-        PreviewPath::Linear { .. } => true,
+        PreviewPath::Linear { .. } | PreviewPath::Via { .. } => true,
     }
 }
 

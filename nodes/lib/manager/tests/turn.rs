@@ -123,7 +123,7 @@ fn the_cup_frame_turns_away_from_a_bottle_put_back_beside_the_cup() {
     // The turned chain: clear of the damper's scene stop distance (3 cm) with a centimetre to
     // spare — no turn keeps the 6 cm asked for among the kitchen's objects here — and the
     // joints (the wrist) off their limits (the taught chain: 2°).
-    let turned_part = line.rsplit("turned: ").next().expect("turned part");
+    let turned_part = line.rsplit("now: ").next().expect("turned part");
     let number = |key: &str| -> f64 {
         turned_part.split(key).nth(1).and_then(|t| t.split([' ', '°']).next()).and_then(|v| v.parse().ok()).expect(key)
     };
