@@ -500,6 +500,9 @@ pub struct DsNode {
     adapter: Adapter,
     scene: SceneObjects,
     scene_max_age_s: f64,
+    /// The damper's `hand_radius`, m: the hand is kept off the table below
+    /// [`crate::scene::HAND_FLOOR_M`] only.
+    hand_radius_m: f64,
     human: CautiousHuman,
     status: StatusTracker,
     rt: RtInputs,
@@ -520,6 +523,7 @@ impl DsNode {
             adapter: Adapter::new(model, params),
             scene,
             scene_max_age_s: params.scene_objects.max_age_s,
+            hand_radius_m: params.controller.safety.hand_radius,
             human: CautiousHuman::new(params.controller.stale_after_s, params.controller.future_tolerance_s),
             status: StatusTracker::new(params.status_rate_hz),
             rt: RtInputs::default(),
@@ -623,7 +627,7 @@ impl DsNode {
                 }
                 // The joints when the frame was taken (the newest, if that close to its stamp).
                 if let Some((q, _)) = self.rt.joints.filter(|(_, t)| (t - d.stamp).abs() <= self.scene_max_age_s) {
-                    self.scene.mark_table(&mut d, &q);
+                    self.scene.mark_table(&mut d, &q, self.hand_radius_m);
                 }
                 mark_handover_goal(&mut d, &self.rt.command);
                 self.rt.distances = d;

@@ -400,6 +400,10 @@ pub struct Distances {
     /// and the null-space avoidance treat every obstacle alike. False when not known (fail
     /// closed: the full damper distances).
     pub scene_object: [bool; MAX_LINKS],
+    /// `floor[i]`: link `i`'s obstacle is the surface the task stands on (the table top, a
+    /// known scene object): the link damper holds even the hand off it — no `hand_radius`
+    /// exemption ([`crate::safety::SafetyConfig::hand_radius`]).
+    pub floor: [bool; MAX_LINKS],
 }
 
 impl Distances {
@@ -409,6 +413,7 @@ impl Distances {
         count: 0,
         links: [LinkDistance::NONE; MAX_LINKS],
         scene_object: [false; MAX_LINKS],
+        floor: [false; MAX_LINKS],
     };
 
     /// A fresh set with no obstacle near any link.

@@ -180,12 +180,13 @@ impl LinkSafety {
         }
     }
 
-    /// Corrects `qdot` (rad/s) in place so that no link in `from..to` of `dist` approaches its
-    /// obstacle faster than allowed; `tool` is the tool point (m, base frame), `age_s` the age
+    /// Corrects `qdot` (rad/s) in place so that no link in `from..to` of `dist` (and no link
+    /// beyond `to` whose entry is a [`Distances::floor`]) approaches its obstacle faster than
+    /// allowed; `tool` is the tool point (m, base frame), `age_s` the age
     /// of `dist` (s, ≥ 0), `poses` the forward kinematics at the current q. Links at or beyond
     /// `slow_distance` (`scene_slow_distance` for a known scene object), closest points within
     /// `hand_radius` of the tool (unless `from..to`
-    /// includes the end-effector links on purpose: `hand` false), invalid entries and links the
+    /// includes the end-effector links on purpose: `hand` false; never for a `floor` entry), invalid entries and links the
     /// joints cannot move (zero Jacobian) are left alone.
     #[allow(clippy::too_many_arguments)]
     pub fn apply(
@@ -209,15 +210,20 @@ impl LinkSafety {
         }
         let c = self.cfg;
         let age = age_s.max(0.0);
-        let to = to.min(dist.count).min(MAX_LINKS);
+        let end = dist.count.min(MAX_LINKS);
+        let to = to.min(end);
         let mut n = 0usize;
         let mut links = [0usize; MAX_LINKS];
-        for l in from..to {
+        for l in from..end {
+            // Beyond `to` (the end-effector links) only the floor holds them.
+            if l >= to && !dist.floor[l] {
+                continue;
+            }
             let o = &dist.links[l];
             if !o.valid || o.distance >= c.slow_distance + age * c.max_obstacle_speed {
                 continue;
             }
-            if tool.is_some_and(|t| (o.robot_point - t).norm() < c.hand_radius) {
+            if !dist.floor[l] && tool.is_some_and(|t| (o.robot_point - t).norm() < c.hand_radius) {
                 continue;
             }
             let diff: Vector3<f64> = o.robot_point - o.obstacle_point;

@@ -365,3 +365,47 @@ fn aging_data_slows_then_holds() {
     assert!((s_mid - 0.5).abs() < 1e-9, "{s_mid}");
     assert!((mid - 0.5 * fresh).abs() < 0.02 * fresh, "fresh {fresh}, mid {mid}");
 }
+
+/// The floor (`Distances::floor`: the table top under the hand, ds_controller's
+/// `keep_off_table`) holds even the hand: the end-effector links, which the damper otherwise
+/// leaves to the modulation, and link points within `hand_radius` of the tool (`cowork
+/// experiment pizza --arms uni` seed 2: the hand went 4 mm below the table top).
+#[test]
+fn the_floor_holds_the_hand_too() {
+    let model = common::lwr();
+    let q = common::q_start();
+    let tool = common::tip_position(&model, &q);
+    let mut poses = LinkPoses::new();
+    model.forward_kinematics(&q, &mut poses);
+    let tip = model.tip_link();
+    let p = Point3::from(poses.get(tip).translation.vector);
+    assert!((p - Point3::from(tool)).norm() < ControllerConfig::default().safety.hand_radius, "the tip link's point is the hand's");
+    // The goal straight through the floor, 1 cm under the hand.
+    let down = -Vector3::z();
+    let goal = tool + down * 0.3;
+    // Without the end-effector modulation, which would also stop the hand here: only the
+    // damper acts.
+    let mut cfg = ControllerConfig::default();
+    cfg.modulation.end_effector = false;
+    let run = |floor: bool| {
+        let mut ctl = DsController::new(model.clone(), cfg).expect("config");
+        let mut input = common::input(q, common::command(common::constant_speed(0.3), goal), 1.0);
+        input.distances.count = model.link_count();
+        input.distances.links[tip] =
+            LinkDistance { valid: true, distance: 0.01, robot_point: p, obstacle_point: p + down * 0.01, normal: -down, obstacle_velocity: Vector3::zeros() };
+        input.distances.scene_object[tip] = true;
+        input.distances.floor[tip] = floor;
+        let mut out = ControlOutput::default();
+        for _ in 0..300 {
+            ctl.step(&input, &mut out).expect("step");
+        }
+        let mut pj = cowork_robot::PositionJacobian::zeros();
+        let in_link = poses.get(tip).inverse_transform_point(&p);
+        model.position_jacobian(&poses, tip, &in_link, &mut pj);
+        (out.diagnostics.safety.active, down.dot(&(pj * out.qdot)))
+    };
+    let (active, speed_down) = run(false);
+    assert!(!active && speed_down > 0.05, "not a floor: the damper leaves the hand alone ({speed_down} m/s down)");
+    let (active, speed_down) = run(true);
+    assert!(active && speed_down < 1e-3, "the floor holds the hand 1 cm above it, inside the scene stop distance ({speed_down} m/s down)");
+}

@@ -25,8 +25,9 @@
 //! turn of the pizza's frame moves the line's start. With `lift_m` heights given, when no turn
 //! reaches with the clearance a linear FOA is previewed lifted, for each height and turn: up
 //! by h from the tool, across to h above the goal, down onto the goal ([`lifted_via`]; each via
-//! point is left once the tool passes within [`VIA_PASS_M`]); the first that reaches with the
-//! clearance is taken, else the best ranked of all.
+//! point is left once the tool passes within [`VIA_PASS_M`]); a lift is taken only if it
+//! reaches, passes (half the clearance) with the joint margin kept, and gains on the best so
+//! far (a better tier, or 1 cm more clearance).
 //!
 //! Not previewed: people (they move; the damper and the DS modulation are for them), objects
 //! that moved within the last second or stand tilted (a bottle the person is pouring over the
