@@ -171,6 +171,15 @@ struct Running {
     started: f64,
     motion_id: Option<u32>,
     stream: Option<Stream>,
+    /// The object's frame the action runs in (turned), base frame: a stalled FOA is lifted in it.
+    frame: Option<Isometry3<f64>>,
+    /// A linear FOA's own plan (its goal): what a lifted motion ends with.
+    linear: Option<MotionPlan>,
+    /// Closest the tool came to the linear FOA's goal (m) and when (s): no centimetre gained
+    /// for [`STALL_S`] is a stall ([`Manager::lift_stalled`]).
+    progress: (f64, f64),
+    /// Lifted once already (a stalled action is lifted at most once).
+    lifted: bool,
     /// The legs of a lifted motion still to send after the one running, next first.
     legs: Vec<MotionPlan>,
     /// The goal of the leg running while more follow: passing it within [`VIA_PASS_M`] starts
@@ -235,9 +244,12 @@ pub struct Manager {
     reopened_t: Option<f64>,
 }
 
-/// A lifted motion is taken over a better-ranked one only if it keeps this much more
-/// clearance, m (or is in a better tier: reaching, passing, supple).
-const LIFT_GAIN_M: f64 = 0.01;
+/// A linear FOA whose tool has not come this much closer to its goal (m) for [`STALL_S`] (s)
+/// is held short of it (the damper holding the arm off a bottle in the way): it is lifted
+/// ([`crate::TurnConfig::lift_m`]).
+const STALL_PROGRESS_M: f64 = 0.01;
+/// See [`STALL_PROGRESS_M`].
+const STALL_S: f64 = 8.0;
 
 /// An object that has not moved for this long rests (s).
 const REST_S: f64 = 1.0;
@@ -402,6 +414,7 @@ impl Manager {
         {
             self.next_leg(out);
         }
+        self.watch_progress(out);
         self.reopen_empty_gripper(out);
         // A gripper action is done when the simulator reports it.
         let Some(cur) = self.current.clone() else { return };
@@ -637,6 +650,10 @@ impl Manager {
             started: now.t,
             motion_id: None,
             stream: None,
+            frame: None,
+            linear: None,
+            progress: (f64::INFINITY, now.t),
+            lifted: false,
             legs: Vec::new(),
             leg_goal: None,
         };
@@ -749,7 +766,8 @@ impl Manager {
             }
         };
         let (tool, world_t) = (world.tool, world.t);
-        let (pose, vias) = self.shape_motion(&run, pose, out);
+        let pose = self.shape_motion(&run, pose, false, out).0;
+        run.frame = Some(pose);
         if self.cfg.noa_execution == NoaExecution::Stream
             && run.kind == ActionKind::Noa
             && let Some(p) = run.primitive.as_ref()
@@ -770,32 +788,27 @@ impl Manager {
             Some(Err(e)) => return self.fail(&run, e.to_string(), out),
             None => return self.fail(&run, "no primitive".into(), out),
         };
-        // A lifted motion: a linear DS to each via point in turn, then the plan.
-        let plan = match (&plan, vias.first()) {
-            (MotionPlan::Linear { gain, .. }, Some(first)) => {
-                run.legs = vias[1..].iter().map(|v| MotionPlan::Linear { goal: *v, gain: *gain }).chain([plan.clone()]).collect();
-                run.leg_goal = Some(*first);
-                MotionPlan::Linear { goal: *first, gain: *gain }
-            }
-            _ => plan,
-        };
+        if run.kind == ActionKind::Foa && matches!(plan, MotionPlan::Linear { .. }) {
+            run.linear = Some(plan.clone());
+        }
         run.motion_id = Some(self.send(run.label.clone(), Some(plan), out));
         Self::report(out, &run, false, false, String::new());
         self.current = Some(run);
     }
 
     /// The frame `object_pose` of `run`'s object, turned about its axis when the object is
-    /// round (`turn.objects`), and the via points of a lifted motion when the action is a
-    /// linear FOA and `turn.lift_m` names heights — both chosen by previewing the motion
-    /// (`crate::turn`) when the taught one does not reach the goal with the clearance (a
-    /// previewer and fresh joints needed); says why it turned or lifted.
-    fn shape_motion(&mut self, run: &Running, object_pose: Isometry3<f64>, out: &mut Vec<Output>) -> (Isometry3<f64>, Vec<Isometry3<f64>>) {
+    /// round (`turn.objects`) and the taught yaw's preview does not reach the goal with the
+    /// clearance; `stalled` (a linear FOA held short of its goal, `turn.lift_m` given): the frame
+    /// as it is and the via points of the best lifted motion from where the tool is, none if
+    /// none reaches (`crate::turn`; a previewer and fresh joints needed). Says why.
+    fn shape_motion(&mut self, run: &Running, object_pose: Isometry3<f64>, stalled: bool, out: &mut Vec<Output>) -> (Isometry3<f64>, Vec<Isometry3<f64>>) {
         let (Some(previewer), Some(world), Some(p)) = (&self.previewer, &self.world, &run.primitive) else {
             return (object_pose, Vec::new());
         };
         let cfg = &self.cfg.turn;
-        let turnable = run.kind != ActionKind::Gripper && run.object != WORLD && cfg.objects.contains(&run.object);
-        let liftable = run.kind == ActionKind::Foa && p.linear_gain.is_some() && !cfg.lift_m.is_empty();
+        // Stalled: the frame in use (`object_pose`) is kept; only lifts are previewed.
+        let turnable = !stalled && run.kind != ActionKind::Gripper && run.object != WORLD && cfg.objects.contains(&run.object);
+        let liftable = stalled && run.kind == ActionKind::Foa && p.linear_gain.is_some() && !cfg.lift_m.is_empty();
         if !turnable && !liftable {
             return (object_pose, Vec::new());
         }
@@ -904,6 +917,25 @@ impl Manager {
             out.push(Output::Warn(format!("{}: {} not previewed (no rollout or goal for its chain): kept at {:+.0}°", run.label, run.object, last.to_degrees())));
             return (turned(&object_pose, last), Vec::new());
         };
+        if stalled {
+            // The straight motion is held where it stands: the lift that reaches, ranked as
+            // the turns are; none reaching: none.
+            let lifted = cfg.lift_m.iter().filter_map(|&h| preview(last, h).map(|r| (h, r))).filter(|(_, r)| r.0.reached);
+            let Some((h, r)) = lifted.fold(None::<(f64, Previewed)>, |b, (h, r)| match b {
+                Some((bh, br)) if rank(&br) >= rank(&r) => Some((bh, br)),
+                _ => Some((h, r)),
+            }) else {
+                out.push(Output::Warn(format!("{}: held short of its goal; no lift reaches it ({})", run.label, describe(&first))));
+                return (object_pose, Vec::new());
+            };
+            out.push(Output::Info(format!(
+                "{}: held short of its goal: lifted {h:.2} m from here (straight on: {}; lifted: {})",
+                run.label,
+                describe(&first),
+                describe(&r)
+            )));
+            return (object_pose, r.2);
+        }
         if clear(&first) {
             out.push(Output::Info(format!("{}: {} kept at {:+.0}° ({})", run.label, run.object, last.to_degrees(), describe(&first))));
             if turnable {
@@ -911,61 +943,32 @@ impl Manager {
             }
             return (turned(&object_pose, last), Vec::new());
         }
-        let turns = if turnable { cfg.candidates(last) } else { vec![last] };
-        let mut best = (last, 0.0, first.clone());
-        'search: for lift in std::iter::once(0.0).chain(if liftable { cfg.lift_m.clone() } else { Vec::new() }) {
-            for &turn in &turns {
-                if turn == last && lift == 0.0 {
-                    continue;
-                }
-                let Some(r) = preview(turn, lift) else { continue };
-                // A lift must pass the objects with the joints off their limits (a lifted
-                // shoulder-mounted arm nears them: lifted with the wrist on its limit, a carry's
-                // last leg took 14 s), and gain: a better tier, or a centimetre more clearance
-                // (an approach lifted 25 cm for the same 9.4 cm its NOA kept from the oil).
-                let better = if lift > 0.0 {
-                    let tier = |r: &Previewed| (r.0.reached, passable(r), supple(r));
-                    r.0.reached
-                        && passable(&r)
-                        && supple(&r)
-                        && (tier(&r) > tier(&best.2) || r.0.clearance_m >= best.2.0.clearance_m + LIFT_GAIN_M)
-                } else {
-                    rank(&r) > rank(&best.2)
-                };
-                if better || (lift == 0.0 && good(&r)) {
-                    best = (turn, lift, r);
-                }
-                if good(&best.2) {
-                    break 'search;
-                }
+        let mut best = (last, first.clone());
+        for turn in cfg.candidates(last).into_iter().skip(1) {
+            let Some(r) = preview(turn, 0.0) else { continue };
+            if good(&r) || rank(&r) > rank(&best.1) {
+                best = (turn, r);
+            }
+            if good(&best.1) {
+                break;
             }
         }
-        let (turn, lift, chosen) = best;
-        if (turn - last).abs() > 1e-9 || lift > 0.0 {
-            let turned_by = if (turn - last).abs() > 1e-9 { format!(" turned {:+.0}° about its axis", turn.to_degrees()) } else { String::new() };
-            let lifted_by = if lift > 0.0 { format!(" lifted {lift:.2} m on the way") } else { String::new() };
+        let (turn, chosen) = best;
+        if (turn - last).abs() > 1e-9 {
             out.push(Output::Info(format!(
-                "{}: {}{turned_by}{lifted_by} (at {:+.0}°: {}; now: {})",
+                "{}: {} turned {:+.0}° about its axis (at {:+.0}°: {}; now: {})",
                 run.label,
                 run.object,
+                turn.to_degrees(),
                 last.to_degrees(),
                 describe(&first),
                 describe(&chosen)
             )));
         } else {
-            out.push(Output::Warn(format!(
-                "{}: no turn{} of {} does better than {:+.0}° ({})",
-                run.label,
-                if liftable { " or lift" } else { "" },
-                run.object,
-                last.to_degrees(),
-                describe(&first)
-            )));
+            out.push(Output::Warn(format!("{}: no turn of {} does better than {:+.0}° ({})", run.label, run.object, last.to_degrees(), describe(&first))));
         }
-        if turnable {
-            self.turns.insert(run.object.clone(), turn);
-        }
-        (turned(&object_pose, turn), chosen.2)
+        self.turns.insert(run.object.clone(), turn);
+        (turned(&object_pose, turn), Vec::new())
     }
 
     /// Advances a streamed NOA: the reference time moves with time while the tool tracks the
@@ -999,6 +1002,45 @@ impl Manager {
         let id = self.send(label, Some(MotionPlan::Linear { goal, gain }), out);
         if let Some(cur) = self.current.as_mut() {
             cur.motion_id = Some(id);
+        }
+    }
+
+    /// Follows a linear FOA's progress toward its goal; held short of it for [`STALL_S`], it is
+    /// lifted once ([`Self::lift_stalled`]) when `turn.lift_m` names heights and a previewer is
+    /// there.
+    fn watch_progress(&mut self, out: &mut Vec<Output>) {
+        if self.mode != Mode::Execute || self.cfg.turn.lift_m.is_empty() || self.previewer.is_none() {
+            return;
+        }
+        let (Some(cur), Some(w)) = (self.current.as_mut(), self.world.as_ref()) else { return };
+        let Some(MotionPlan::Linear { goal, .. }) = &cur.linear else { return };
+        if cur.lifted || cur.motion_id.is_none() {
+            return;
+        }
+        let d = (w.tool.translation.vector - goal.translation.vector).norm();
+        // Within a via point's reach of the goal it is converging, not held.
+        if d < cur.progress.0 - STALL_PROGRESS_M || w.t < cur.progress.1 || d <= VIA_PASS_M {
+            cur.progress = (d, w.t);
+        } else if w.t - cur.progress.1 >= STALL_S {
+            cur.lifted = true;
+            self.lift_stalled(out);
+        }
+    }
+
+    /// A linear FOA held short of its goal: previewed lifted from where the tool is (up by
+    /// each of `turn.lift_m`, across to that height above the goal, down onto it), the best
+    /// that reaches is sent leg by leg; none reaching: it runs on as it was.
+    fn lift_stalled(&mut self, out: &mut Vec<Output>) {
+        let Some(cur) = self.current.clone() else { return };
+        let (Some(frame), Some(MotionPlan::Linear { goal, gain })) = (cur.frame, cur.linear.clone()) else { return };
+        let (_, vias) = self.shape_motion(&cur, frame, true, out);
+        let Some(first) = vias.first().copied() else { return };
+        let legs: Vec<MotionPlan> = vias[1..].iter().map(|v| MotionPlan::Linear { goal: *v, gain }).chain([MotionPlan::Linear { goal, gain }]).collect();
+        let id = self.send(cur.label.clone(), Some(MotionPlan::Linear { goal: first, gain }), out);
+        if let Some(c) = self.current.as_mut() {
+            c.legs = legs;
+            c.leg_goal = Some(first);
+            c.motion_id = Some(id);
         }
     }
 

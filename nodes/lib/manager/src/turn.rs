@@ -22,13 +22,16 @@
 //!
 //! **Lift.** A carry learned as one straight line from the grasp (a linear FOA) starts at
 //! bottle height; with four bottles in one area another often stands on that line, and no
-//! turn of the pizza's frame moves the line's start. With `lift_m` heights given, when no turn
-//! reaches with the clearance a linear FOA is previewed lifted, for each height and turn: up
-//! by h from the tool, across to h above the goal, down onto the goal ([`lifted_via`]; each via
-//! point is left once the tool passes within [`VIA_PASS_M`]); a lift is taken only if it
-//! reaches, passes (half the clearance) with the joint margin kept, and gains on the best so
-//! far (a better tier, or 1 cm more clearance).
-//!
+//! turn of the pizza's frame moves the line's start. The straight line usually still gets
+//! past (the DS modulation bends it), so it runs first; but when the tool has gained no
+//! centimetre on its goal for 8 s (the damper holding the arm off a bottle) and `lift_m` names
+//! heights, the manager previews the motion lifted from where the tool is, for each height:
+//! up by h, across to h above the goal, down onto it ([`lifted_via`]; each via point is left
+//! once the tool passes within [`VIA_PASS_M`]), and sends the best that reaches, once.
+//! Lifting every carry the preview found blocked instead (tried first) made every pizza
+//! trial 90 s slower: the last leg, down onto the goal, is slowed by the table-top constraint
+//! of the links under the wrist.
+
 //! Not previewed: people (they move; the damper and the DS modulation are for them), objects
 //! that moved within the last second or stand tilted (a bottle the person is pouring over the
 //! cup will be put back elsewhere), the table, the held object's own shape.
@@ -73,12 +76,11 @@ pub struct TurnConfig {
     /// Joint positions older than this (against the world report) are not previewed from, s:
     /// the action then runs with the taught yaw.
     pub max_joint_age_s: f64,
-    /// Heights a linear FOA (a carry, a put-back) may lift the tool by, m, each in (0, 0.5],
-    /// tried in order (with every turn) when no turn reaches the goal with the clearance: up
-    /// by h from where the tool is, across to h above the goal, down onto it ([`lifted_via`]).
-    /// A carry learned as one straight line from the grasp, at bottle height, runs through a
-    /// bottle standing between the grasp and the pizza (`cowork experiment pizza --arms uni`
-    /// seeds 6 and 9). Empty: never lifted.
+    /// Heights a linear FOA (a carry, a put-back) held short of its goal may lift the tool
+    /// by, m, each in (0, 0.5]: up by h from where the tool is, across to h above the goal,
+    /// down onto it ([`lifted_via`]; module docs). A carry learned as one straight line from
+    /// the grasp, at bottle height, runs into a bottle standing between the grasp and the
+    /// pizza (`cowork experiment pizza --arms uni` seeds 6 and 9). Empty: never lifted.
     pub lift_m: Vec<f64>,
 }
 
