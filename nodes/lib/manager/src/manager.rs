@@ -175,11 +175,12 @@ struct Running {
     frame: Option<Isometry3<f64>>,
     /// A linear FOA's own plan (its goal): what a lifted motion ends with.
     linear: Option<MotionPlan>,
-    /// Closest the tool came to the linear FOA's goal (m) and when (s): no centimetre gained
-    /// for [`STALL_S`] is a stall ([`Manager::lift_stalled`]).
+    /// Progress and when it was last made (s): the closest the tool came to a linear FOA's
+    /// goal (m, a centimetre counts), a streamed NOA's reference time (s); none for
+    /// `turn.stall_s` is a stall ([`Manager::watch_progress`]).
     progress: (f64, f64),
-    /// Lifted once already (a stalled action is lifted at most once).
-    lifted: bool,
+    /// Rescued once already (a stalled action is lifted or turned at most once).
+    rescued: bool,
     /// The legs of a lifted motion still to send after the one running, next first.
     legs: Vec<MotionPlan>,
     /// The goal of the leg running while more follow: passing it within [`VIA_PASS_M`] starts
@@ -244,12 +245,20 @@ pub struct Manager {
     reopened_t: Option<f64>,
 }
 
-/// A linear FOA whose tool has not come this much closer to its goal (m) for [`STALL_S`] (s)
-/// is held short of it (the damper holding the arm off a bottle in the way): it is lifted
-/// ([`crate::TurnConfig::lift_m`]).
+/// A linear FOA whose tool has not come this much closer to its goal (m) for
+/// `turn.stall_s` is held short of it (the damper holding the arm off a bottle in the way).
 const STALL_PROGRESS_M: f64 = 0.01;
-/// See [`STALL_PROGRESS_M`].
-const STALL_S: f64 = 8.0;
+
+/// What [`Manager::shape_motion`] chooses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Shaping {
+    /// An action starting: the turn of a round object's frame.
+    Start,
+    /// A linear FOA held short of its goal: a lift from where the tool is.
+    StalledLift,
+    /// A streamed NOA held short: another turn, from where the arm is.
+    StalledTurn,
+}
 
 /// An object that has not moved for this long rests (s).
 const REST_S: f64 = 1.0;
@@ -653,7 +662,7 @@ impl Manager {
             frame: None,
             linear: None,
             progress: (f64::INFINITY, now.t),
-            lifted: false,
+            rescued: false,
             legs: Vec::new(),
             leg_goal: None,
         };
@@ -766,7 +775,7 @@ impl Manager {
             }
         };
         let (tool, world_t) = (world.tool, world.t);
-        let pose = self.shape_motion(&run, pose, false, out).0;
+        let pose = self.shape_motion(&run, pose, Shaping::Start, out).0;
         run.frame = Some(pose);
         if self.cfg.noa_execution == NoaExecution::Stream
             && run.kind == ActionKind::Noa
@@ -801,12 +810,13 @@ impl Manager {
     /// clearance; `stalled` (a linear FOA held short of its goal, `turn.lift_m` given): the frame
     /// as it is and the via points of the best lifted motion from where the tool is, none if
     /// none reaches (`crate::turn`; a previewer and fresh joints needed). Says why.
-    fn shape_motion(&mut self, run: &Running, object_pose: Isometry3<f64>, stalled: bool, out: &mut Vec<Output>) -> (Isometry3<f64>, Vec<Isometry3<f64>>) {
+    fn shape_motion(&mut self, run: &Running, object_pose: Isometry3<f64>, shaping: Shaping, out: &mut Vec<Output>) -> (Isometry3<f64>, Vec<Isometry3<f64>>) {
         let (Some(previewer), Some(world), Some(p)) = (&self.previewer, &self.world, &run.primitive) else {
             return (object_pose, Vec::new());
         };
         let cfg = &self.cfg.turn;
-        // Stalled: the frame in use (`object_pose`) is kept; only lifts are previewed.
+        // Lifted: the frame in use (`object_pose`) is kept.
+        let stalled = shaping == Shaping::StalledLift;
         let turnable = !stalled && run.kind != ActionKind::Gripper && run.object != WORLD && cfg.objects.contains(&run.object);
         let liftable = stalled && run.kind == ActionKind::Foa && p.linear_gain.is_some() && !cfg.lift_m.is_empty();
         if !turnable && !liftable {
@@ -936,6 +946,34 @@ impl Manager {
             )));
             return (object_pose, r.2);
         }
+        if shaping == Shaping::StalledTurn {
+            // The turn in use is held short: the best other turn that reaches, from here.
+            let other = cfg
+                .candidates(last)
+                .into_iter()
+                .skip(1)
+                .filter_map(|turn| preview(turn, 0.0).map(|r| (turn, r)))
+                .filter(|(_, r)| r.0.reached)
+                .fold(None::<(f64, Previewed)>, |b, (t, r)| match b {
+                    Some((bt, br)) if rank(&br) >= rank(&r) => Some((bt, br)),
+                    _ => Some((t, r)),
+                });
+            let Some((turn, r)) = other else {
+                out.push(Output::Warn(format!("{}: held short; no other turn of {} reaches ({})", run.label, run.object, describe(&first))));
+                return (turned(&object_pose, last), Vec::new());
+            };
+            out.push(Output::Info(format!(
+                "{}: held short: {} turned {:+.0}° about its axis from here (at {:+.0}°: {}; now: {})",
+                run.label,
+                run.object,
+                turn.to_degrees(),
+                last.to_degrees(),
+                describe(&first),
+                describe(&r)
+            )));
+            self.turns.insert(run.object.clone(), turn);
+            return (turned(&object_pose, turn), Vec::new());
+        }
         if clear(&first) {
             out.push(Output::Info(format!("{}: {} kept at {:+.0}° ({})", run.label, run.object, last.to_degrees(), describe(&first))));
             if turnable {
@@ -1005,26 +1043,69 @@ impl Manager {
         }
     }
 
-    /// Follows a linear FOA's progress toward its goal; held short of it for [`STALL_S`], it is
-    /// lifted once ([`Self::lift_stalled`]) when `turn.lift_m` names heights and a previewer is
-    /// there.
+    /// Follows an action's progress (`turn.stall_s` > 0, a previewer there): a linear FOA held
+    /// short of its goal for `stall_s` is lifted ([`Self::lift_stalled`], with `turn.lift_m`),
+    /// a streamed NOA in a round object's frame whose reference has not moved for `stall_s`
+    /// is turned another way from where the arm is ([`Self::turn_stalled`]); once per action.
     fn watch_progress(&mut self, out: &mut Vec<Output>) {
-        if self.mode != Mode::Execute || self.cfg.turn.lift_m.is_empty() || self.previewer.is_none() {
+        let stall_s = self.cfg.turn.stall_s;
+        if self.mode != Mode::Execute || stall_s <= 0.0 || self.previewer.is_none() {
             return;
         }
         let (Some(cur), Some(w)) = (self.current.as_mut(), self.world.as_ref()) else { return };
-        let Some(MotionPlan::Linear { goal, .. }) = &cur.linear else { return };
-        if cur.lifted || cur.motion_id.is_none() {
+        if cur.rescued || cur.motion_id.is_none() {
             return;
         }
-        let d = (w.tool.translation.vector - goal.translation.vector).norm();
-        // Within a via point's reach of the goal it is converging, not held.
-        if d < cur.progress.0 - STALL_PROGRESS_M || w.t < cur.progress.1 || d <= VIA_PASS_M {
-            cur.progress = (d, w.t);
-        } else if w.t - cur.progress.1 >= STALL_S {
-            cur.lifted = true;
-            self.lift_stalled(out);
+        let (measure, moved) = match (&cur.linear, &cur.stream) {
+            (Some(MotionPlan::Linear { goal, .. }), _) if !self.cfg.turn.lift_m.is_empty() => {
+                let d = (w.tool.translation.vector - goal.translation.vector).norm();
+                // Within a via point's reach of the goal it is converging, not held.
+                (d, d < cur.progress.0 - STALL_PROGRESS_M || d <= VIA_PASS_M)
+            }
+            (_, Some(st)) if self.cfg.turn.objects.contains(&cur.object) => {
+                // The reference moves while the tool tracks it; at the last goal it converges.
+                let at_last = st.sent + 1 >= st.poses.len()
+                    && (w.tool.translation.vector - st.poses[st.sent].1.translation.vector).norm() <= VIA_PASS_M;
+                (-st.t_ref, -st.t_ref < cur.progress.0 || at_last)
+            }
+            _ => return,
+        };
+        if moved || w.t < cur.progress.1 {
+            cur.progress = (measure, w.t);
+        } else if w.t - cur.progress.1 >= stall_s {
+            cur.rescued = true;
+            if cur.stream.is_some() {
+                self.turn_stalled(out);
+            } else {
+                self.lift_stalled(out);
+            }
         }
+    }
+
+    /// A streamed NOA held short: the best other turn of its object's frame that reaches,
+    /// previewed from where the arm is; the rollout restarts from the tool in that frame.
+    fn turn_stalled(&mut self, out: &mut Vec<Output>) {
+        let Some(cur) = self.current.clone() else { return };
+        let (Some(frame), Some(p), Some((tool, t))) = (cur.frame, cur.primitive.as_ref(), self.world.as_ref().map(|w| (w.tool, w.t))) else {
+            return;
+        };
+        let last = self.turns.get(&cur.object).copied().unwrap_or(0.0);
+        // The object's own pose: the frame in use turned back.
+        let object_pose = turned(&frame, -last);
+        let (pose, _) = self.shape_motion(&cur, object_pose, Shaping::StalledTurn, out);
+        if (pose.rotation.angle_to(&frame.rotation)) < 1e-9 {
+            return;
+        }
+        let poses = match p.rollout_poses(&pose, &tool, 0.01) {
+            Ok(Some(poses)) if !poses.is_empty() => poses,
+            _ => return,
+        };
+        if let Some(c) = self.current.as_mut() {
+            c.frame = Some(pose);
+            c.stream = Some(Stream { poses, t_ref: 0.0, sent: 0, last_t: t });
+            c.motion_id = None;
+        }
+        self.stream_step(out);
     }
 
     /// A linear FOA held short of its goal: previewed lifted from where the tool is (up by
@@ -1033,7 +1114,7 @@ impl Manager {
     fn lift_stalled(&mut self, out: &mut Vec<Output>) {
         let Some(cur) = self.current.clone() else { return };
         let (Some(frame), Some(MotionPlan::Linear { goal, gain })) = (cur.frame, cur.linear.clone()) else { return };
-        let (_, vias) = self.shape_motion(&cur, frame, true, out);
+        let (_, vias) = self.shape_motion(&cur, frame, Shaping::StalledLift, out);
         let Some(first) = vias.first().copied() else { return };
         let legs: Vec<MotionPlan> = vias[1..].iter().map(|v| MotionPlan::Linear { goal: *v, gain }).chain([MotionPlan::Linear { goal, gain }]).collect();
         let id = self.send(cur.label.clone(), Some(MotionPlan::Linear { goal: first, gain }), out);

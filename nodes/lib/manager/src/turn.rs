@@ -20,17 +20,20 @@
 //! object first, and the first that reaches with the clearance is taken, else the one that
 //! reaches with the most clearance (else the taught yaw).
 //!
-//! **Lift.** A carry learned as one straight line from the grasp (a linear FOA) starts at
-//! bottle height; with four bottles in one area another often stands on that line, and no
-//! turn of the pizza's frame moves the line's start. The straight line usually still gets
-//! past (the DS modulation bends it), so it runs first; but when the tool has gained no
-//! centimetre on its goal for 8 s (the damper holding the arm off a bottle) and `lift_m` names
-//! heights, the manager previews the motion lifted from where the tool is, for each height:
-//! up by h, across to h above the goal, down onto it ([`lifted_via`]; each via point is left
-//! once the tool passes within [`VIA_PASS_M`]), and sends the best that reaches, once.
-//! Lifting every carry the preview found blocked instead (tried first) made every pizza
-//! trial 90 s slower: the last leg, down onto the goal, is slowed by the table-top constraint
-//! of the links under the wrist.
+//! **Held short** (`stall_s` > 0). A carry learned as one straight line from the grasp (a
+//! linear FOA) starts at bottle height; with four bottles in one area another often stands on
+//! that line, and no turn of the pizza's frame moves the line's start. The straight line
+//! usually still gets past (the DS modulation bends it), so it runs first; when the tool has
+//! gained no centimetre on its goal for `stall_s` (the damper holding the arm off a bottle),
+//! the manager previews the motion lifted from where the tool is, for each of `lift_m`: up by
+//! h, across to h above the goal, down onto it ([`lifted_via`]; each via point is left once
+//! the tool passes within [`VIA_PASS_M`]), and sends the best that reaches. A streamed NOA in
+//! a turnable frame whose reference has not moved for `stall_s` (a pour held with the forearm
+//! over a bottle) gets the best other turn that reaches, previewed from where the arm is, and
+//! its rollout restarts from the tool. Once per action. Lifting every carry whose preview was
+//! blocked, before it started, was tried first: every pizza trial took about 90 s longer (the
+//! last leg, down onto the goal, is slowed by the table-top constraint on the links under
+//! the wrist).
 
 //! Not previewed: people (they move; the damper and the DS modulation are for them), objects
 //! that moved within the last second or stand tilted (a bottle the person is pouring over the
@@ -82,6 +85,10 @@ pub struct TurnConfig {
     /// the grasp, at bottle height, runs into a bottle standing between the grasp and the
     /// pizza (`cowork experiment pizza --arms uni` seeds 6 and 9). Empty: never lifted.
     pub lift_m: Vec<f64>,
+    /// An action held short this long, s, is rescued once (module docs, *Held short*): a
+    /// linear FOA lifted (`lift_m`), a streamed NOA in a turnable frame turned another way.
+    /// 0: never.
+    pub stall_s: f64,
 }
 
 impl Default for TurnConfig {
@@ -96,6 +103,7 @@ impl Default for TurnConfig {
             step_s: 0.005,
             max_joint_age_s: 0.5,
             lift_m: Vec::new(),
+            stall_s: 0.0,
         }
     }
 }
@@ -120,6 +128,9 @@ impl TurnConfig {
             if !ok(v, 0.0, hi) {
                 return Some((field, format!("{v} must be in (0, {hi}]")));
             }
+        }
+        if !(self.stall_s == 0.0 || ok(self.stall_s, 0.0, 120.0)) {
+            return Some(("turn.stall_s", format!("{} must be 0 (off) or in (0, 120]", self.stall_s)));
         }
         if let Some(h) = self.lift_m.iter().find(|h| !ok(**h, 0.0, 0.5)) {
             return Some(("turn.lift_m", format!("{h} must be in (0, 0.5]")));

@@ -230,3 +230,53 @@ fn a_carry_held_short_by_a_standing_bottle_is_lifted_over_it() {
     let (mut m, _) = start(false);
     assert!(linear_goals(&hold(&mut m, 30.0)).is_empty(), "lift_m empty: never lifted");
 }
+
+/// A pour held short (the forearm held over a bottle, `uni` seed 2 of the first lifted table):
+/// its reference time stops; after `stall_s` the pizza's frame is turned another way from
+/// where the arm is and the rollout restarts there.
+#[test]
+fn a_pour_held_short_is_turned_another_way() {
+    let k = pizza();
+    let q0 = k.holding_the_tomato();
+    // Carried over the pizza as taught (previewed).
+    let pizza_pose = k.object("pizza");
+    let carry = k.db.get("rfoa4").expect("rfoa4");
+    let path = PreviewPath::Linear { goal: carry.goal_at(&pizza_pose).expect("goal"), gain: carry.linear_gain.expect("gain") };
+    let q = k.previewer().run(&q0, &path, &[], 0.01).q_end;
+    let tool = k.model.link_pose(&q, k.model.tip_link());
+    let mut m = Manager::new(k.config(true), k.db.clone());
+    m.set_previewer(k.previewer());
+    let mut out = Vec::new();
+    let now = Stamp { t: 10.0, unix_s: 0 };
+    m.handle(&Input::Joints { t: 10.0, q }, now, &mut out);
+    m.handle(&Input::World(k.world(10.0, tool)), now, &mut out);
+    m.handle(&Input::Action(ActionRequest { id: 5, label: "rnoa5(pizza)".into(), stop: false }), now, &mut out);
+    let first = linear_goals(&out);
+    assert_eq!(first.len(), 1, "the stream's first goal: {out:?}");
+    // The tool stays where it is: the reference advances while it is within tracking reach of
+    // the tool, then stops.
+    let mut out = Vec::new();
+    let mut t = 10.0;
+    let mut turned_at = None;
+    while t < 60.0 && turned_at.is_none() {
+        t += 0.1;
+        m.handle(&Input::Joints { t, q }, Stamp { t, unix_s: 0 }, &mut out);
+        m.handle(&Input::World(k.world(t, tool)), Stamp { t, unix_s: 0 }, &mut out);
+        if out.iter().any(|o| matches!(o, Output::Info(t) if t.contains("held short"))) {
+            turned_at = Some(t);
+        }
+    }
+    let turned_at = turned_at.expect("the stalled pour is turned");
+    assert!(turned_at >= 18.0, "not before stall_s: {turned_at}");
+    let turned = out
+        .iter()
+        .find_map(|o| match o {
+            Output::Info(t) if t.contains("held short") => Some(t.clone()),
+            _ => None,
+        })
+        .expect("the stalled pour is turned");
+    eprintln!("{turned}");
+    assert!(turned.contains("pizza turned") && !turned.contains("turned +0°"), "{turned}");
+    let restarted = linear_goals(&out);
+    assert!(!restarted.is_empty() && restarted[0].0 > first[0].0, "the rollout restarts: {out:?}");
+}
