@@ -914,6 +914,13 @@ impl Manager {
         // seed 7's pour for 120 s.
         let passable = |r: &Previewed| r.0.clearance_m >= 0.5 * cfg.clearance_m;
         let rank = |r: &Previewed| (r.0.reached, passable(r), supple(r), r.0.clearance_m);
+        // Of (height or turn, preview) pairs, the best ranked that reaches (the first of equals).
+        let best_reaching = |candidates: &mut dyn Iterator<Item = (f64, Previewed)>| {
+            candidates.filter(|(_, r)| r.0.reached).fold(None::<(f64, Previewed)>, |b, (k, r)| match b {
+                Some((bk, br)) if rank(&br) >= rank(&r) => Some((bk, br)),
+                _ => Some((k, r)),
+            })
+        };
         let describe = |(r, label, _): &Previewed| {
             let near = r.closest.as_ref().map_or(String::new(), |(l, o)| format!(" ({l} at {o})"));
             format!(
@@ -930,11 +937,7 @@ impl Manager {
         if stalled {
             // The straight motion is held where it stands: the lift that reaches, ranked as
             // the turns are; none reaching: none.
-            let lifted = cfg.lift_m.iter().filter_map(|&h| preview(last, h).map(|r| (h, r))).filter(|(_, r)| r.0.reached);
-            let Some((h, r)) = lifted.fold(None::<(f64, Previewed)>, |b, (h, r)| match b {
-                Some((bh, br)) if rank(&br) >= rank(&r) => Some((bh, br)),
-                _ => Some((h, r)),
-            }) else {
+            let Some((h, r)) = best_reaching(&mut cfg.lift_m.iter().filter_map(|&h| preview(last, h).map(|r| (h, r)))) else {
                 out.push(Output::Warn(format!("{}: held short of its goal; no lift reaches it ({})", run.label, describe(&first))));
                 return (object_pose, Vec::new());
             };
@@ -948,17 +951,8 @@ impl Manager {
         }
         if shaping == Shaping::StalledTurn {
             // The turn in use is held short: the best other turn that reaches, from here.
-            let other = cfg
-                .candidates(last)
-                .into_iter()
-                .skip(1)
-                .filter_map(|turn| preview(turn, 0.0).map(|r| (turn, r)))
-                .filter(|(_, r)| r.0.reached)
-                .fold(None::<(f64, Previewed)>, |b, (t, r)| match b {
-                    Some((bt, br)) if rank(&br) >= rank(&r) => Some((bt, br)),
-                    _ => Some((t, r)),
-                });
-            let Some((turn, r)) = other else {
+            let Some((turn, r)) = best_reaching(&mut cfg.candidates(last).into_iter().skip(1).filter_map(|turn| preview(turn, 0.0).map(|r| (turn, r))))
+            else {
                 out.push(Output::Warn(format!("{}: held short; no other turn of {} reaches ({})", run.label, run.object, describe(&first))));
                 return (turned(&object_pose, last), Vec::new());
             };

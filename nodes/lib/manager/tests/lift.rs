@@ -134,6 +134,14 @@ fn verdict(out: &[Output]) -> String {
         .expect("the preview's verdict")
 }
 
+/// The manager's report of a held action it rescued.
+fn held_short(out: &[Output]) -> Option<String> {
+    out.iter().find_map(|o| match o {
+        Output::Info(t) if t.contains("held short") => Some(t.clone()),
+        _ => None,
+    })
+}
+
 /// The clearance after `key` in a verdict's part, m.
 fn clearance(part: &str) -> f64 {
     part.split("clearance ").nth(1).and_then(|t| t.split(' ').next()).and_then(|v| v.parse().ok()).expect("clearance")
@@ -182,13 +190,7 @@ fn a_carry_held_short_by_a_standing_bottle_is_lifted_over_it() {
     // Held 8 s: lifted from here, up, across above the goal, down onto it.
     let (mut m, _) = start(true);
     let out = hold(&mut m, 18.05);
-    let lifted = out
-        .iter()
-        .find_map(|o| match o {
-            Output::Info(t) if t.contains("held short") => Some(t.clone()),
-            _ => None,
-        })
-        .expect("the stall is reported");
+    let lifted = held_short(&out).expect("the stall is reported");
     eprintln!("stalled: {lifted}");
     assert!(clearance(lifted.rsplit("lifted: ").next().expect("lifted part")) > clearance(&lifted), "the lift gains clearance: {lifted}");
     let h: f64 = lifted.split("lifted ").nth(1).and_then(|t| t.split(' ').next()).and_then(|v| v.parse().ok()).expect("height");
@@ -262,19 +264,13 @@ fn a_pour_held_short_is_turned_another_way() {
         t += 0.1;
         m.handle(&Input::Joints { t, q }, Stamp { t, unix_s: 0 }, &mut out);
         m.handle(&Input::World(k.world(t, tool)), Stamp { t, unix_s: 0 }, &mut out);
-        if out.iter().any(|o| matches!(o, Output::Info(t) if t.contains("held short"))) {
+        if held_short(&out).is_some() {
             turned_at = Some(t);
         }
     }
     let turned_at = turned_at.expect("the stalled pour is turned");
     assert!(turned_at >= 18.0, "not before stall_s: {turned_at}");
-    let turned = out
-        .iter()
-        .find_map(|o| match o {
-            Output::Info(t) if t.contains("held short") => Some(t.clone()),
-            _ => None,
-        })
-        .expect("the stalled pour is turned");
+    let turned = held_short(&out).expect("the stalled pour is turned");
     eprintln!("{turned}");
     assert!(turned.contains("pizza turned") && !turned.contains("turned +0°"), "{turned}");
     let restarted = linear_goals(&out);
