@@ -256,7 +256,8 @@ enum Shaping {
     Start,
     /// A linear FOA held short of its goal: a lift from where the tool is.
     StalledLift,
-    /// A streamed NOA held short: another turn, from where the arm is.
+    /// A streamed NOA, or a linear FOA that is not lifted, held short: another turn, from
+    /// where the arm is.
     StalledTurn,
 }
 
@@ -1050,13 +1051,15 @@ impl Manager {
         if cur.rescued || cur.motion_id.is_none() {
             return;
         }
+        let turnable = self.cfg.turn.objects.contains(&cur.object);
+        let liftable = !self.cfg.turn.lift_m.is_empty();
         let (measure, moved) = match (&cur.linear, &cur.stream) {
-            (Some(MotionPlan::Linear { goal, .. }), _) if !self.cfg.turn.lift_m.is_empty() => {
+            (Some(MotionPlan::Linear { goal, .. }), _) if liftable || turnable => {
                 let d = (w.tool.translation.vector - goal.translation.vector).norm();
                 // Within a via point's reach of the goal it is converging, not held.
                 (d, d < cur.progress.0 - STALL_PROGRESS_M || d <= VIA_PASS_M)
             }
-            (_, Some(st)) if self.cfg.turn.objects.contains(&cur.object) => {
+            (_, Some(st)) if turnable => {
                 // The reference moves while the tool tracks it; at the last goal it converges.
                 let at_last = st.sent + 1 >= st.poses.len()
                     && (w.tool.translation.vector - st.poses[st.sent].1.translation.vector).norm() <= VIA_PASS_M;
@@ -1068,16 +1071,18 @@ impl Manager {
             cur.progress = (measure, w.t);
         } else if w.t - cur.progress.1 >= stall_s {
             cur.rescued = true;
-            if cur.stream.is_some() {
-                self.turn_stalled(out);
-            } else {
+            // A linear FOA is lifted where heights are given (the pizza), else turned.
+            if cur.stream.is_none() && liftable {
                 self.lift_stalled(out);
+            } else {
+                self.turn_stalled(out);
             }
         }
     }
 
-    /// A streamed NOA held short: the best other turn of its object's frame that reaches,
-    /// previewed from where the arm is; the rollout restarts from the tool in that frame.
+    /// A streamed NOA, or a linear FOA with no lift heights, held short in a turnable frame:
+    /// the best other turn of its object's frame that reaches, previewed from where the arm
+    /// is; the rollout restarts from the tool in that frame, the FOA is sent to its goal there.
     fn turn_stalled(&mut self, out: &mut Vec<Output>) {
         let Some(cur) = self.current.clone() else { return };
         let (Some(frame), Some(p), Some((tool, t))) = (cur.frame, cur.primitive.as_ref(), self.world.as_ref().map(|w| (w.tool, w.t))) else {
@@ -1088,6 +1093,16 @@ impl Manager {
         let object_pose = turned(&frame, -last);
         let (pose, _) = self.shape_motion(&cur, object_pose, Shaping::StalledTurn, out);
         if (pose.rotation.angle_to(&frame.rotation)) < 1e-9 {
+            return;
+        }
+        if cur.stream.is_none() {
+            let Ok(plan @ MotionPlan::Linear { .. }) = p.plan(&pose) else { return };
+            let id = self.send(cur.label.clone(), Some(plan.clone()), out);
+            if let Some(c) = self.current.as_mut() {
+                c.frame = Some(pose);
+                c.linear = Some(plan);
+                c.motion_id = Some(id);
+            }
             return;
         }
         let poses = match p.rollout_poses(&pose, &tool, 0.01) {

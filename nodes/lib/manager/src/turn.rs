@@ -30,7 +30,9 @@
 //! the tool passes within [`VIA_PASS_M`]), and sends the best that reaches. A streamed NOA in
 //! a turnable frame whose reference has not moved for `stall_s` (a pour held with the forearm
 //! over a bottle) gets the best other turn that reaches, previewed from where the arm is, and
-//! its rollout restarts from the tool. Once per action. Lifting every carry whose preview was
+//! its rollout restarts from the tool; so does a linear FOA in a turnable frame where no lift
+//! heights are given (the kitchen: the jar's carry over the cup, held off a bottle put down
+//! after the carry was previewed), sent to its goal in the new frame. Once per action. Lifting every carry whose preview was
 //! blocked, before it started, was tried first: every pizza trial took about 90 s longer (the
 //! last leg, down onto the goal, is slowed by the table-top constraint on the links under
 //! the wrist).
@@ -86,8 +88,8 @@ pub struct TurnConfig {
     /// pizza (`cowork experiment pizza --arms uni` seeds 6 and 9). Empty: never lifted.
     pub lift_m: Vec<f64>,
     /// An action held short this long, s, is rescued once (module docs, *Held short*): a
-    /// linear FOA lifted (`lift_m`), a streamed NOA in a turnable frame turned another way.
-    /// 0: never.
+    /// linear FOA lifted (`lift_m`), else, in a turnable frame, turned another way, as a
+    /// streamed NOA in a turnable frame is. 0: never. Default 8 s.
     pub stall_s: f64,
 }
 
@@ -103,7 +105,7 @@ impl Default for TurnConfig {
             step_s: 0.005,
             max_joint_age_s: 0.5,
             lift_m: Vec::new(),
-            stall_s: 0.0,
+            stall_s: 8.0,
         }
     }
 }
