@@ -1096,7 +1096,13 @@ impl Manager {
             return;
         }
         if cur.stream.is_none() {
-            let Ok(plan @ MotionPlan::Linear { .. }) = p.plan(&pose) else { return };
+            let plan = match p.plan(&pose) {
+                Ok(plan @ MotionPlan::Linear { .. }) => plan,
+                other => {
+                    let why = other.map_or_else(|e| e.to_string(), |_| "not a linear motion".to_owned());
+                    return out.push(Output::Warn(format!("{}: held short; the turned goal could not be planned ({why}): runs on as it was", cur.label)));
+                }
+            };
             let id = self.send(cur.label.clone(), Some(plan.clone()), out);
             if let Some(c) = self.current.as_mut() {
                 c.frame = Some(pose);
