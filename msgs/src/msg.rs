@@ -223,6 +223,8 @@ ros_message!(
         KIND_HOLD: u8 = 5,
         /// HMM primitive: its generated path tracked (Algorithm 3, Sec. 4.1.3).
         KIND_HMM: u8 = 6,
+        /// Joint-space move: parameters = [q_g (7, rad), gain (1/s), max_speed (rad/s)].
+        KIND_JOINTS: u8 = 7,
     }
 );
 

@@ -9,7 +9,7 @@
 use cowork_ds::goal::Reach;
 use cowork_ds::primitive::{ConstantSpeed, Linear};
 use cowork_ds::{
-    Distances, ExternalWrench, Fault, HoldReason, HumanInput, HumanMode, HumanState, LinkDistance, MotionCommand,
+    Distances, ExternalWrench, Fault, HoldReason, HumanInput, HumanMode, HumanState, JointMove, LinkDistance, MotionCommand,
     Primitive, Status, Stream, WrenchIgnored,
 };
 use cowork_msgs::builtin_interfaces::Time;
@@ -19,7 +19,7 @@ use cowork_msgs::msg::{
 };
 use cowork_msgs::sensor_msgs::JointState;
 use cowork_msgs::std_msgs::Header;
-use cowork_robot::{JointVector, LinkPoses, MAX_LINKS, RobotModel};
+use cowork_robot::{DOF, JointVector, LinkPoses, MAX_LINKS, RobotModel};
 use cowork_msgs::topics;
 use cowork_ros::{Warning, quote};
 use nalgebra::{Point3, Quaternion, UnitQuaternion, Vector3};
@@ -237,18 +237,50 @@ impl Adapter {
                 }
                 Primitive::Learned
             }
+            MotionCommandMsg::KIND_JOINTS => {
+                let p = &msg.parameters;
+                if p.len() != DOF + 2 {
+                    return bad(format!(
+                        "primitive kind {} (joints): parameters must be [7 joint positions (rad), gain (1/s), max_speed (rad/s)], got {} values",
+                        msg.kind,
+                        p.len()
+                    ));
+                }
+                let mut joints = [0.0; DOF];
+                joints.copy_from_slice(&p[..DOF]);
+                for (i, (v, l)) in joints.iter().zip(self.model.joint_limits()).enumerate() {
+                    if !l.contains(*v) {
+                        return bad(format!(
+                            "primitive kind {} (joints): joint {} goal {v} rad is outside its limits [{}, {}] rad",
+                            msg.kind,
+                            i + 1,
+                            l.lower,
+                            l.upper
+                        ));
+                    }
+                }
+                Primitive::Joints(JointMove { joints, gain: p[DOF], max_speed: p[DOF + 1] })
+            }
             k => return bad(format!("unknown primitive kind {k}")),
         };
         if let Some((what, value)) = primitive.invalid_parameter() {
             return bad(format!("primitive parameter {what} = {value} must be finite and > 0"));
         }
         let gp = &msg.goal.position;
-        let goal = Vector3::new(gp.x, gp.y, gp.z);
+        let goal = match primitive {
+            // The tool's position at the goal joints (the message's goal is not used).
+            Primitive::Joints(m) => {
+                let mut poses = LinkPoses::new();
+                self.model.forward_kinematics(&JointVector::from_row_slice(&m.joints), &mut poses);
+                poses.get(self.model.tip_link()).translation.vector
+            }
+            _ => Vector3::new(gp.x, gp.y, gp.z),
+        };
         if !goal.iter().all(|v| v.is_finite()) {
             return bad(format!("goal position ({}, {}, {}) is not finite", gp.x, gp.y, gp.z));
         }
         let o = &msg.goal.orientation;
-        let orientation = if msg.hold_orientation || matches!(primitive, Primitive::Hold) {
+        let orientation = if msg.hold_orientation || matches!(primitive, Primitive::Hold | Primitive::Joints(_)) {
             None
         } else {
             let q = Quaternion::new(o.w, o.x, o.y, o.z);

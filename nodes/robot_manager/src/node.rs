@@ -278,6 +278,11 @@ impl RobotManagerNode {
                             c.parameters_json.clone_from(model_json);
                             c.goal = pose(goal);
                         }
+                        Some(MotionPlan::Joints { joints, gain, max_speed, tool }) => {
+                            c.kind = MotionCommand::KIND_JOINTS;
+                            c.parameters = joints.iter().copied().chain([*gain, *max_speed]).collect();
+                            c.goal = pose(tool);
+                        }
                         Some(MotionPlan::Gripper(_)) => continue,
                     }
                     if c.kind == MotionCommand::KIND_HOLD {

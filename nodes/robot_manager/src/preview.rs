@@ -42,9 +42,24 @@ pub fn load(params: &Params, place: &str) -> Result<Option<(Previewer, Vec<Strin
         .arm_base_for_prefix(&prefix)
         .with_context(|| format!("{place}: `preview.scene` {} has no arm for the namespace {namespace:?}", scene_path.display()))?;
     let shapes = scene.objects.iter().map(|o| (o.name.clone(), o.shape));
+    // The arm's ready pose: its start joints in the scene (an arm wound up is unwound to it).
+    let ready = scene
+        .arm_setups()
+        .into_iter()
+        .find(|a| a.name == arm || !scene.has_named_arms())
+        .map(|a| a.initial_joints_deg)
+        .filter(|d| d.len() == cowork_robot::DOF)
+        .map(|d| cowork_robot::JointVector::from_iterator(d.iter().map(|v| v.to_radians())));
     let previewer = Previewer::new(model.clone(), block.controller, shapes, params.manager.turn.step_s)
         .map_err(|e| anyhow::anyhow!("{place}: `preview.controller_params` {}: {e}", p.controller_params))?
         .with_up(base.inverse().rotation * nalgebra::Vector3::z());
+    let previewer = match ready {
+        Some(q) => previewer.with_ready(q),
+        None => {
+            tracing::warn!("{place}: `preview.scene` {} gives no start joints for this arm: a wound-up arm is not unwound", scene_path.display());
+            previewer
+        }
+    };
     tracing::info!(
         "motion preview on: {} may be turned up to ±{}° to keep the arm {} m from the other objects",
         params.manager.turn.objects.join(", "),

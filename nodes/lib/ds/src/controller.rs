@@ -8,7 +8,7 @@ use crate::modulation::{
     EPSILON, Escape, EscapeConfig, influence_weight, modulate, orthonormal_basis,
     weighted_eigenvalues, weighted_modulation_matrix_in_basis,
 };
-use crate::primitive::{LearnedField, Primitive};
+use crate::primitive::{JointMove, LearnedField, Primitive};
 use crate::safety::{LinkSafety, SafetyConfig, SafetyReport};
 use crate::scaling::{HumanState, ScalingConfig};
 use crate::ttc::{Contact, Ttc, TtcConfig, TtcReport, contact_point_at_link_end};
@@ -852,6 +852,10 @@ impl DsController {
         d.age_scale = age_scale;
         let alpha = self.cfg.scaling.alpha(&input.human.state) * self.ramp * age_scale;
         d.alpha = alpha;
+        if let Primitive::Joints(m) = cmd.primitive {
+            self.joint_step(input, &m, alpha, d, out);
+            return Ok(());
+        }
         // A learned primitive's null-space (elbow) path, if it has one (Sec. 4.1.1).
         let mut null_space = None;
         let nominal = match (&cmd.primitive, field) {
@@ -1022,6 +1026,33 @@ impl DsController {
             }
         }
         d.contact = contact_report;
+        let converged = goal_error <= self.cfg.goal_tolerance_m
+            && (cmd.orientation.is_none()
+                || d.orientation_error_rad <= self.cfg.orientation_tolerance_rad);
+        self.finish_step(input, qdot, alpha, converged, d, out);
+        Ok(())
+    }
+
+    /// A [`Primitive::Joints`] step: q̇ = k (q_g − q), no joint faster than the move's
+    /// `max_speed`, times α_h; then the damper, the tool's speed and the limits as every step.
+    fn joint_step(&mut self, input: &ControlInput, m: &JointMove, alpha: f64, d: Diagnostics, out: &mut ControlOutput) {
+        let error = JointVector::from_row_slice(&m.joints) - input.q;
+        let mut qdot = error * m.gain;
+        let fastest = qdot.amax();
+        if fastest > m.max_speed {
+            qdot *= m.max_speed / fastest;
+        }
+        qdot *= alpha;
+        self.ik.update_tool_jacobian(&self.model, &self.poses, self.tip);
+        self.finish_step(input, qdot, alpha, error.amax() <= JointMove::TOLERANCE_RAD, d, out);
+    }
+
+    /// The end of every moving step: the link damper, the tool's allowed speed, the joint
+    /// limits on `qdot`; the command and the status into `out`.
+    fn finish_step(&mut self, input: &ControlInput, mut qdot: JointVector, alpha: f64, converged: bool, mut d: Diagnostics, out: &mut ControlOutput) {
+        let cmd = &input.command;
+        let dist = &input.distances;
+        let x = d.ee_position;
         // Safety above the end-effector task: no link closes on an obstacle faster than the
         // damper allows (the end-effector links too unless the command turned their avoidance
         // off).
@@ -1059,15 +1090,12 @@ impl DsController {
             self.model.joint_limits(),
             &input.q,
             &mut qdot,
-            dt,
+            self.cfg.period_s,
             k.velocity_limit_fraction,
             k.position_margin,
         );
         self.last_qdot = qdot;
         out.qdot = qdot;
-        let converged = goal_error <= self.cfg.goal_tolerance_m
-            && (cmd.orientation.is_none()
-                || d.orientation_error_rad <= self.cfg.orientation_tolerance_rad);
         out.status = if self.cfg.scaling.alpha(&input.human.state) == 0.0 && self.ramp >= 1.0 {
             Status::Held(HoldReason::SpeedZero)
         } else if converged {
@@ -1076,7 +1104,6 @@ impl DsController {
             Status::Running
         };
         out.diagnostics = d;
-        Ok(())
     }
 
     /// Fastest approach (m/s, closing speed along the closest-point line) of an obstacle that is

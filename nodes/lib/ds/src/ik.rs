@@ -336,8 +336,16 @@ impl Ik {
 }
 
 impl Ik {
-    /// The tip's position Jacobian (m/rad, base frame) at the configuration of the last solve,
-    /// every joint included: the tool's actual linear velocity is this times q̇.
+    /// Takes the tip's position Jacobian at `poses` without solving (a step that moves the
+    /// joints directly, [`crate::JointMove`]); the null space becomes the whole joint space.
+    pub fn update_tool_jacobian(&mut self, model: &RobotModel, poses: &LinkPoses, tip: usize) {
+        model.jacobian(poses, tip, &Point3::origin(), &mut self.jac);
+        self.tool = self.jac.fixed_rows::<3>(0).into_owned();
+        self.null_space = JointMatrix::identity();
+    }
+
+    /// The tip's position Jacobian (m/rad, base frame) at the configuration of the last solve
+    /// (or update), every joint included: the tool's actual linear velocity is this times q̇.
     pub fn tool_position_jacobian(&self) -> &PositionJacobian {
         &self.tool
     }

@@ -55,7 +55,7 @@ pub use controller::{
     MotionCommand, Status, WrenchIgnored,
 };
 pub use error::{Error, Fault, Result, Stream};
-pub use primitive::{FirstOrderDs, LearnedField, Primitive};
+pub use primitive::{FirstOrderDs, JointMove, LearnedField, Primitive};
 pub use safety::{SafetyConfig, SafetyReport};
 pub use scaling::{HumanMode, HumanState};
 pub use tracker::PathTracker;

@@ -95,6 +95,26 @@ impl FirstOrderDs for ConstantSpeed {
     }
 }
 
+/// A move in joint space (ours, beyond the thesis): q̇ = k (q_g − q), no joint faster than
+/// `max_speed`, times α_h; the link damper, the tool's allowed speed and the joint limits act
+/// on it as on every motion. The robot manager unwinds an arm a turned pour left wound up
+/// with it (joint 7 on its limit), back to its ready pose, before the next approach.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointMove {
+    /// Goal joint positions q_g (rad).
+    pub joints: [f64; 7],
+    /// Gain k (1/s), > 0.
+    pub gain: f64,
+    /// Largest joint speed (rad/s), > 0.
+    pub max_speed: f64,
+}
+
+impl JointMove {
+    /// The move reaches its goal when every joint is within this of it (rad).
+    pub const TOLERANCE_RAD: f64 = 0.01;
+}
+
 /// The primitives a [`crate::ControlInput`] can carry (`Copy`, so the real-time thread can
 /// receive it through a mailbox).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -109,6 +129,8 @@ pub enum Primitive {
     /// A learned primitive: f is the [`LearnedField`] handed to
     /// [`crate::DsController::step_with_field`] (without one the step faults and holds).
     Learned,
+    /// [`JointMove`]: the goal position is the tool's at the goal joints.
+    Joints(JointMove),
 }
 
 impl Primitive {
@@ -119,6 +141,9 @@ impl Primitive {
             Primitive::Linear(l) if bad(l.gain) => Some(("gain", l.gain)),
             Primitive::ConstantSpeed(c) if bad(c.speed) => Some(("speed", c.speed)),
             Primitive::ConstantSpeed(c) if bad(c.smoothing) => Some(("smoothing", c.smoothing)),
+            Primitive::Joints(j) if bad(j.gain) => Some(("gain", j.gain)),
+            Primitive::Joints(j) if bad(j.max_speed) => Some(("max_speed", j.max_speed)),
+            Primitive::Joints(j) => j.joints.iter().find(|v| !v.is_finite()).map(|v| ("joints", *v)),
             _ => None,
         }
     }
@@ -130,7 +155,8 @@ impl FirstOrderDs for Primitive {
             Primitive::Linear(l) => l.velocity(x, goal),
             Primitive::ConstantSpeed(c) => c.velocity(x, goal),
             // The field is not part of the `Copy` command; see `LearnedField`.
-            Primitive::Hold | Primitive::Learned => Vector3::zeros(),
+            // A joint move is not a field over x (see `JointMove`).
+            Primitive::Hold | Primitive::Learned | Primitive::Joints(_) => Vector3::zeros(),
         }
     }
 }

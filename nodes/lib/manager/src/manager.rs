@@ -186,6 +186,8 @@ struct Running {
     /// The goal of the leg running while more follow: passing it within [`VIA_PASS_M`] starts
     /// the next.
     leg_goal: Option<Isometry3<f64>>,
+    /// A linear FOA whose reach is still to be previewed ([`Manager::way_round`]).
+    check_reach: bool,
 }
 
 /// A NOA being streamed: the rolled-out poses and how far the reference is.
@@ -248,6 +250,11 @@ pub struct Manager {
 /// A linear FOA whose tool has not come this much closer to its goal (m) for
 /// `turn.stall_s` is held short of it (the damper holding the arm off a bottle in the way).
 const STALL_PROGRESS_M: f64 = 0.01;
+
+/// The move back to the ready pose that unwinds an arm ([`Manager::way_round`]): gain, 1/s,
+/// and the fastest joint, rad/s (the tool keeps ds_controller's allowed speed besides).
+const UNWIND_GAIN: f64 = 2.0;
+const UNWIND_MAX_SPEED: f64 = 0.6;
 
 /// What [`Manager::shape_motion`] chooses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -424,6 +431,7 @@ impl Manager {
         {
             self.next_leg(out);
         }
+        self.way_round(out);
         self.watch_progress(out);
         self.reopen_empty_gripper(out);
         // A gripper action is done when the simulator reports it.
@@ -666,6 +674,7 @@ impl Manager {
             rescued: false,
             legs: Vec::new(),
             leg_goal: None,
+            check_reach: false,
         };
         let label = match Label::parse(&a.label) {
             Ok(l) => l,
@@ -800,6 +809,7 @@ impl Manager {
         };
         if run.kind == ActionKind::Foa && matches!(plan, MotionPlan::Linear { .. }) {
             run.linear = Some(plan.clone());
+            run.check_reach = self.cfg.turn.way_round && !self.cfg.turn.objects.contains(&run.object);
         }
         run.motion_id = Some(self.send(run.label.clone(), Some(plan), out));
         Self::report(out, &run, false, false, String::new());
@@ -837,15 +847,7 @@ impl Manager {
                 return (turned(&object_pose, last), Vec::new());
             }
         };
-        // Every object at rest but the action's own and the held one is in the way (one that
-        // moves or is tilted — a bottle a person is pouring — will be elsewhere).
-        let own = [self.cfg.scene_name(&run.object), world.held.as_deref().and_then(|h| self.cfg.scene_name(h).or(Some(h)))];
-        let others: Vec<(&str, Isometry3<f64>)> = self
-            .scene_objects
-            .iter()
-            .filter(|(n, _, resting)| *resting && !own.contains(&Some(n.as_str())))
-            .map(|(n, pose, _)| (n.as_str(), *pose))
-            .collect();
+        let others = self.in_the_way(run, world);
         let chain = self.db.chain_after(p);
         let up = previewer.up();
         let tol = cfg.reach_tolerance_m;
@@ -1002,6 +1004,73 @@ impl Manager {
         }
         self.turns.insert(run.object.clone(), turn);
         (turned(&object_pose, turn), Vec::new())
+    }
+
+    /// The objects a preview of `run` keeps the arm off (scene name, pose, base frame): every
+    /// object at rest but the action's own and the held one (one that moves or is tilted — a
+    /// bottle a person is pouring — will be elsewhere).
+    fn in_the_way(&self, run: &Running, world: &World) -> Vec<(&str, Isometry3<f64>)> {
+        let own = [self.cfg.scene_name(&run.object), world.held.as_deref().and_then(|h| self.cfg.scene_name(h).or(Some(h)))];
+        self.scene_objects
+            .iter()
+            .filter(|(n, _, resting)| *resting && !own.contains(&Some(n.as_str())))
+            .map(|(n, pose, _)| (n.as_str(), *pose))
+            .collect()
+    }
+
+    /// Once a linear FOA outside the turnable frames has started: previewed from where the arm
+    /// is; when it does not reach its goal, previewed after a move in joint space back to the
+    /// arm's ready pose, and when that reaches, the move is sent first (`crate::turn`, *The
+    /// way round*).
+    fn way_round(&mut self, out: &mut Vec<Output>) {
+        let Some(cur) = self.current.as_mut().filter(|c| c.check_reach) else { return };
+        cur.check_reach = false;
+        let cur = cur.clone();
+        let (Some(previewer), Some(world), Some(MotionPlan::Linear { goal, gain })) = (&self.previewer, &self.world, &cur.linear) else {
+            return;
+        };
+        let (goal, gain) = (*goal, *gain);
+        let cfg = &self.cfg.turn;
+        let (Some(q0), Some(ready)) = (self.joints.filter(|(t, _)| (world.t - t).abs() <= cfg.max_joint_age_s).map(|(_, q)| q), previewer.ready())
+        else {
+            return;
+        };
+        let others = self.in_the_way(&cur, world);
+        let tol = cfg.reach_tolerance_m;
+        let direct = previewer.run(&q0, &PreviewPath::Linear { goal, gain }, &others, tol);
+        if direct.reached {
+            return;
+        }
+        let unwind = PreviewPath::Joints { joints: ready, gain: UNWIND_GAIN, max_speed: UNWIND_MAX_SPEED };
+        let back = previewer.run(&q0, &unwind, &others, tol);
+        let on = previewer.run(&back.q_end, &PreviewPath::Linear { goal, gain }, &others, tol);
+        let r = back.then(on);
+        let short = format!(
+            "straight on it stops {:.3} m short (joint margin {:.0}°)",
+            direct.tool_error_m,
+            direct.joint_margin_rad.to_degrees()
+        );
+        if !r.reached {
+            return out.push(Output::Warn(format!(
+                "{}: {short}, and from the ready pose too ({:.3} m short): runs on as it was",
+                cur.label, r.tool_error_m
+            )));
+        }
+        out.push(Output::Info(format!(
+            "{}: {short}: back to the ready pose in joint space first, then on to the goal (reaches, clearance {:.3} m, joint margin {:.0}°)",
+            cur.label,
+            r.clearance_m,
+            r.joint_margin_rad.to_degrees()
+        )));
+        let plan = MotionPlan::Joints { joints: ready, gain: UNWIND_GAIN, max_speed: UNWIND_MAX_SPEED, tool: previewer.tool_at(&ready) };
+        let id = self.send(cur.label.clone(), Some(plan), out);
+        if let Some(c) = self.current.as_mut() {
+            // The joint move ends when the controller reports it converged.
+            c.legs = vec![MotionPlan::Linear { goal, gain }];
+            c.leg_goal = None;
+            c.motion_id = Some(id);
+            c.rescued = true;
+        }
     }
 
     /// Advances a streamed NOA: the reference time moves with time while the tool tracks the

@@ -120,6 +120,19 @@ pub enum MotionPlan {
     },
     /// Gripper command.
     Gripper(GripperCommand),
+    /// A move in joint space to `joints` (rad): gain (1/s), no joint faster than `max_speed`
+    /// (rad/s); `tool` is the tool's pose there (base frame). Sent to unwind the arm
+    /// ([`crate::turn`], *The way round*).
+    Joints {
+        /// Goal joint positions, rad.
+        joints: cowork_robot::JointVector,
+        /// 1/s.
+        gain: f64,
+        /// rad/s.
+        max_speed: f64,
+        /// Tool pose at `joints`, base frame.
+        tool: Isometry3<f64>,
+    },
 }
 
 fn to_frame(frame: &Isometry3<f64>, p: &Isometry3<f64>) -> Isometry3<f64> {

@@ -37,6 +37,19 @@
 //! last leg, down onto the goal, is slowed by the table-top constraint on the links under
 //! the wrist).
 
+//! **The way round** (`way_round`). A turned pour can leave the arm wound up: after
+//! coffee-closed-bottle seed 2's pour turned +150° and the jar put back, the approach to the
+//! water bottle, `foa1(water)`, drove joint 7 onto its +170° limit (joints 3 and 6 within a
+//! few degrees of theirs) and stood there 5 cm short for 120 s. No Cartesian motion unwinds
+//! it: the controller follows the tool, and the tool's way to the goal is what winds the arm.
+//! So every linear FOA outside the turnable frames (an approach to the next object) is
+//! previewed once it has started (the command goes out first: replanning is not slowed); one
+//! that does not reach is previewed again after a move in joint space back to the arm's ready
+//! pose (its start joints in the scene, [`Previewer::with_ready`]), and when that reaches, the
+//! move is sent first ([`cowork_ds::JointMove`]: the damper and the tool's allowed speed act
+//! on it as on every motion), then the FOA once the controller reports the move converged.
+//! Neither reaching: the FOA runs on as it was, with a warning.
+//!
 //! Not previewed: people (they move; the damper and the DS modulation are for them), objects
 //! that moved within the last second or stand tilted (a bottle the person is pouring over the
 //! cup will be put back elsewhere), the table, the held object's own shape.
@@ -45,7 +58,7 @@ use std::collections::BTreeMap;
 
 use cowork_ds::primitive::Linear;
 use cowork_ds::{
-    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, HumanInput, HumanMode, HumanState,
+    ControlInput, ControlOutput, ControllerConfig, Distances, DsController, HumanInput, HumanMode, HumanState, JointMove,
     MotionCommand, Primitive as DsPrimitive,
 };
 use cowork_robot::{JointVector, LinkPoses, RobotModel};
@@ -91,6 +104,11 @@ pub struct TurnConfig {
     /// linear FOA lifted (`lift_m`), else, in a turnable frame, turned another way, as a
     /// streamed NOA in a turnable frame is. 0: never. Default 8 s.
     pub stall_s: f64,
+    /// A linear FOA outside the turnable frames (an approach to the next object) whose preview
+    /// from where the arm is stops short of its goal is previewed again after a move in joint
+    /// space back to the ready pose, and that move is sent first when the FOA then reaches
+    /// (module docs, *The way round*). Default on.
+    pub way_round: bool,
 }
 
 impl Default for TurnConfig {
@@ -106,6 +124,7 @@ impl Default for TurnConfig {
             max_joint_age_s: 0.5,
             lift_m: Vec::new(),
             stall_s: 8.0,
+            way_round: true,
         }
     }
 }
@@ -193,6 +212,16 @@ pub enum PreviewPath<'a> {
         /// 1/s.
         gain: f64,
     },
+    /// A move in joint space to `joints` (rad) with `gain` (1/s), no joint faster than
+    /// `max_speed` (rad/s).
+    Joints {
+        /// rad.
+        joints: JointVector,
+        /// 1/s.
+        gain: f64,
+        /// rad/s.
+        max_speed: f64,
+    },
     /// A linear DS to a via point, left (reached) once the tool passes within `pass_m` of it.
     Via {
         /// Base frame.
@@ -209,6 +238,8 @@ impl PreviewPath<'_> {
         match self {
             PreviewPath::Stream { poses, .. } => poses.last().map_or_else(Isometry3::identity, |p| p.1),
             PreviewPath::Linear { goal, .. } | PreviewPath::Via { goal, .. } => *goal,
+            // Taken by `Previewer::run` from the model.
+            PreviewPath::Joints { .. } => Isometry3::identity(),
         }
     }
 }
@@ -281,6 +312,8 @@ pub struct Previewer {
     /// The world's up in the arm's base frame (unit): the z axis for an arm standing on the
     /// table, the world's z turned into a shoulder-mounted arm's base frame.
     up: Vector3<f64>,
+    /// The arm's ready pose (its start joints in the scene, rad), if known.
+    ready: Option<JointVector>,
 }
 
 /// Sampled vertices per link.
@@ -328,7 +361,7 @@ impl Previewer {
                 (pts, centre, radius)
             })
             .collect();
-        Ok(Self { model, controller, fresh, colliders, links, up: Vector3::z() })
+        Ok(Self { model, controller, fresh, colliders, links, up: Vector3::z(), ready: None })
     }
 
     /// With the world's up `up` in the arm's base frame (normalised; a zero or non-finite
@@ -345,6 +378,25 @@ impl Previewer {
         self.up
     }
 
+    /// With the arm's ready pose `q` (rad; the scene's start joints): the pose an arm wound up
+    /// is unwound to (module docs, *The way round*). Joints outside their limits or not finite
+    /// leave none.
+    pub fn with_ready(mut self, q: JointVector) -> Self {
+        let within = q.iter().zip(self.model.joint_limits()).all(|(v, l)| v.is_finite() && l.contains(*v));
+        self.ready = within.then_some(q);
+        self
+    }
+
+    /// The arm's ready pose (rad), if known.
+    pub fn ready(&self) -> Option<JointVector> {
+        self.ready
+    }
+
+    /// The tool's pose at joints `q` (base frame).
+    pub fn tool_at(&self, q: &JointVector) -> Isometry3<f64> {
+        self.model.link_pose(q, self.model.tip_link())
+    }
+
     /// Whether the shape of scene object `name` is known.
     pub fn knows(&self, name: &str) -> bool {
         self.colliders.contains_key(name)
@@ -357,9 +409,12 @@ impl Previewer {
         let mut ctl = self.fresh.clone();
         let known: Vec<(&str, Isometry3<f64>, &Collider)> =
             objects.iter().filter_map(|(n, p)| self.colliders.get(*n).map(|c| (*n, *p, c))).collect();
-        let end = path.end();
+        let end = match path {
+            PreviewPath::Joints { joints, .. } => self.tool_at(joints),
+            _ => path.end(),
+        };
         let gain = match path {
-            PreviewPath::Stream { gain, .. } | PreviewPath::Linear { gain, .. } | PreviewPath::Via { gain, .. } => *gain,
+            PreviewPath::Stream { gain, .. } | PreviewPath::Linear { gain, .. } | PreviewPath::Via { gain, .. } | PreviewPath::Joints { gain, .. } => *gain,
         };
         let pass_m = match path {
             PreviewPath::Via { pass_m, .. } => Some(*pass_m),
@@ -370,7 +425,7 @@ impl Previewer {
                 let t = poses.last().map_or(0.0, |p| p.0);
                 (t, 3.0 * t + SETTLE_S)
             }
-            PreviewPath::Linear { .. } | PreviewPath::Via { .. } => (0.0, 20.0),
+            PreviewPath::Linear { .. } | PreviewPath::Via { .. } | PreviewPath::Joints { .. } => (0.0, 20.0),
         };
         horizon = horizon.min(120.0);
         let check_every = ((0.02 / dt).round() as usize).max(1);
@@ -402,6 +457,7 @@ impl Previewer {
                     rollout[sent].1
                 }
                 PreviewPath::Linear { goal, .. } | PreviewPath::Via { goal, .. } => *goal,
+                PreviewPath::Joints { .. } => end,
             };
             if pass_m.is_some_and(|pass| (tool.translation.vector - goal.translation.vector).norm() <= pass) {
                 break;
@@ -430,9 +486,17 @@ impl Previewer {
                     }
                 }
             }
+            let primitive = match path {
+                PreviewPath::Joints { joints, max_speed, .. } => {
+                    let mut q_goal = [0.0; 7];
+                    q_goal.copy_from_slice(joints.as_slice());
+                    DsPrimitive::Joints(JointMove { joints: q_goal, gain, max_speed: *max_speed })
+                }
+                _ => DsPrimitive::Linear(Linear { gain }),
+            };
             let command = MotionCommand {
                 id,
-                primitive: DsPrimitive::Linear(Linear { gain }),
+                primitive,
                 goal: goal.translation.vector,
                 orientation: Some(goal.rotation),
                 end_effector_avoidance: true,
@@ -486,7 +550,7 @@ impl Previewer {
 fn sent_all(path: &PreviewPath<'_>, sent: usize) -> bool {
     match path {
         PreviewPath::Stream { poses, .. } => sent + 1 >= poses.len(),
-        PreviewPath::Linear { .. } | PreviewPath::Via { .. } => true,
+        PreviewPath::Linear { .. } | PreviewPath::Via { .. } | PreviewPath::Joints { .. } => true,
     }
 }
 
