@@ -1025,11 +1025,23 @@ impl Manager {
     fn way_round(&mut self, out: &mut Vec<Output>) {
         let Some(cur) = self.current.as_mut().filter(|c| c.check_reach) else { return };
         cur.check_reach = false;
-        let cur = cur.clone();
+        self.unwind(false, out);
+    }
+
+    /// The running linear FOA, unless `stalled` (held short for `turn.stall_s`: then from
+    /// where it stands) only when its preview from here stops short: previewed after a move in
+    /// joint space back to the ready pose, and when it reaches from there, the move is sent
+    /// first and the FOA after it.
+    fn unwind(&mut self, stalled: bool, out: &mut Vec<Output>) {
+        let Some(cur) = self.current.clone() else { return };
         let (Some(previewer), Some(world), Some(MotionPlan::Linear { goal, gain })) = (&self.previewer, &self.world, &cur.linear) else {
             return;
         };
         let (goal, gain) = (*goal, *gain);
+        // A held object would swing with the wrist: only an empty hand is unwound.
+        if world.held.is_some() {
+            return;
+        }
         let cfg = &self.cfg.turn;
         let (Some(q0), Some(ready)) = (self.joints.filter(|(t, _)| (world.t - t).abs() <= cfg.max_joint_age_s).map(|(_, q)| q), previewer.ready())
         else {
@@ -1038,18 +1050,22 @@ impl Manager {
         let others = self.in_the_way(&cur, world);
         let tol = cfg.reach_tolerance_m;
         let direct = previewer.run(&q0, &PreviewPath::Linear { goal, gain }, &others, tol);
-        if direct.reached {
+        if direct.reached && !stalled {
             return;
         }
         let unwind = PreviewPath::Joints { joints: ready, gain: UNWIND_GAIN, max_speed: UNWIND_MAX_SPEED };
         let back = previewer.run(&q0, &unwind, &others, tol);
         let on = previewer.run(&back.q_end, &PreviewPath::Linear { goal, gain }, &others, tol);
         let r = back.then(on);
-        let short = format!(
-            "straight on it stops {:.3} m short (joint margin {:.0}°)",
-            direct.tool_error_m,
-            direct.joint_margin_rad.to_degrees()
-        );
+        let short = if stalled {
+            format!(
+                "held short of its goal {:.3} m away (straight on from here: {})",
+                (world.tool.translation.vector - goal.translation.vector).norm(),
+                if direct.reached { "reaches".to_owned() } else { format!("{:.3} m short", direct.tool_error_m) }
+            )
+        } else {
+            format!("straight on it stops {:.3} m short (joint margin {:.0}°)", direct.tool_error_m, direct.joint_margin_rad.to_degrees())
+        };
         if !r.reached {
             return out.push(Output::Warn(format!(
                 "{}: {short}, and from the ready pose too ({:.3} m short): runs on as it was",
@@ -1109,8 +1125,10 @@ impl Manager {
 
     /// Follows an action's progress (`turn.stall_s` > 0, a previewer there): a linear FOA held
     /// short of its goal for `stall_s` is lifted ([`Self::lift_stalled`], with `turn.lift_m`),
-    /// a streamed NOA in a round object's frame whose reference has not moved for `stall_s`
-    /// is turned another way from where the arm is ([`Self::turn_stalled`]); once per action.
+    /// else in a round object's frame turned another way, else (`turn.way_round`, the hand
+    /// empty) unwound back to the ready pose ([`Self::unwind`]); a streamed NOA in a round
+    /// object's frame whose reference has not moved for `stall_s` is turned another way from
+    /// where the arm is ([`Self::turn_stalled`]); once per action.
     fn watch_progress(&mut self, out: &mut Vec<Output>) {
         let stall_s = self.cfg.turn.stall_s;
         if self.mode != Mode::Execute || stall_s <= 0.0 || self.previewer.is_none() {
@@ -1122,8 +1140,9 @@ impl Manager {
         }
         let turnable = self.cfg.turn.objects.contains(&cur.object);
         let liftable = !self.cfg.turn.lift_m.is_empty();
+        let unwindable = self.cfg.turn.way_round;
         let (measure, moved) = match (&cur.linear, &cur.stream) {
-            (Some(MotionPlan::Linear { goal, .. }), _) if liftable || turnable => {
+            (Some(MotionPlan::Linear { goal, .. }), _) if liftable || turnable || unwindable => {
                 let d = (w.tool.translation.vector - goal.translation.vector).norm();
                 // Within a via point's reach of the goal it is converging, not held.
                 (d, d < cur.progress.0 - STALL_PROGRESS_M || d <= VIA_PASS_M)
@@ -1140,11 +1159,14 @@ impl Manager {
             cur.progress = (measure, w.t);
         } else if w.t - cur.progress.1 >= stall_s {
             cur.rescued = true;
-            // A linear FOA is lifted where heights are given (the pizza), else turned.
+            // A linear FOA is lifted where heights are given (the pizza), else turned in a
+            // turnable frame, else unwound.
             if cur.stream.is_none() && liftable {
                 self.lift_stalled(out);
-            } else {
+            } else if turnable {
                 self.turn_stalled(out);
+            } else {
+                self.unwind(true, out);
             }
         }
     }

@@ -48,7 +48,11 @@
 //! pose (its start joints in the scene, [`Previewer::with_ready`]), and when that reaches, the
 //! move is sent first ([`cowork_ds::JointMove`]: the damper and the tool's allowed speed act
 //! on it as on every motion), then the FOA once the controller reports the move converged.
-//! Neither reaching: the FOA runs on as it was, with a warning.
+//! Neither reaching: the FOA runs on as it was, with a warning. Such an FOA that is held short
+//! for `stall_s` all the same (coffee-cooperative seed 9: `foa17(spoon)` stood 1.5 cm short
+//! with joint 7 on its −170° limit, where the preview from the start had reached) is unwound
+//! from where it stands the same way, once. Only an empty hand is unwound (a held object would
+//! swing with the wrist).
 //!
 //! Not previewed: people (they move; the damper and the DS modulation are for them), objects
 //! that moved within the last second or stand tilted (a bottle the person is pouring over the
