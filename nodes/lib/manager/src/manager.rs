@@ -250,6 +250,9 @@ pub struct Manager {
 /// A linear FOA whose tool has not come this much closer to its goal (m) for
 /// `turn.stall_s` is held short of it (the damper holding the arm off a bottle in the way).
 const STALL_PROGRESS_M: f64 = 0.01;
+/// Within [`VIA_PASS_M`] of its goal an approach that has not come this much closer (m) for
+/// `turn.stall_s` is held short.
+const STALL_NEAR_PROGRESS_M: f64 = 0.002;
 
 /// The move back to the ready pose that unwinds an arm ([`Manager::way_round`]): gain, 1/s,
 /// and the fastest joint, rad/s (the tool keeps ds_controller's allowed speed besides).
@@ -1144,8 +1147,11 @@ impl Manager {
         let (measure, moved) = match (&cur.linear, &cur.stream) {
             (Some(MotionPlan::Linear { goal, .. }), _) if liftable || turnable || unwindable => {
                 let d = (w.tool.translation.vector - goal.translation.vector).norm();
-                // Within a via point's reach of the goal it is converging, not held.
-                (d, d < cur.progress.0 - STALL_PROGRESS_M || d <= VIA_PASS_M)
+                // Within a via point's reach of the goal a lifted or turned motion is converging,
+                // not held. An approach to unwind must gain millimetres there: seed 9's spoon
+                // approach stood 1.5 cm short for 120 s.
+                let near = if liftable || turnable { d <= VIA_PASS_M } else { d < cur.progress.0 - STALL_NEAR_PROGRESS_M };
+                (d, d < cur.progress.0 - STALL_PROGRESS_M || near)
             }
             (_, Some(st)) if turnable => {
                 // The reference moves while the tool tracks it; at the last goal it converges.

@@ -2,7 +2,9 @@
 //! `config/learned`: the jar carried over the cup and poured with the bottle put back beside
 //! the cup where coffee-cooperative seed 3 left it.
 
-use cowork_ds::ControllerConfig;
+mod common;
+
+use common::{bundled_config, controller, root};
 use cowork_manager::{
     ActionRequest, Database, Input, Manager, ManagerConfig, MotionOrder, MotionPlan, ObjectReport, Output, PreviewPath, Previewer, Stamp,
     WorldReport,
@@ -11,15 +13,7 @@ use cowork_robot::{JointVector, RobotModel};
 use cowork_sim::Scene;
 use nalgebra::{Isometry3, Vector3};
 
-fn root() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..")
-}
 
-fn controller() -> ControllerConfig {
-    let text = std::fs::read_to_string(root().join("config/ds_controller.yaml")).expect("ds_controller.yaml");
-    let doc: serde_yaml_ng::Value = serde_yaml_ng::from_str(&text).expect("yaml");
-    serde_yaml_ng::from_value(doc["ds_controller"]["ros__parameters"]["controller"].clone()).expect("controller block")
-}
 
 struct Kitchen {
     model: RobotModel,
@@ -142,14 +136,6 @@ fn the_cup_frame_turns_away_from_a_bottle_put_back_beside_the_cup() {
 }
 
 
-/// The manager block of config/robot_manager.yaml (the kitchen arm), as the node reads it.
-fn bundled_config() -> ManagerConfig {
-    let text = std::fs::read_to_string(root().join("config/robot_manager.yaml")).expect("robot_manager.yaml");
-    let doc: serde_yaml_ng::Value = serde_yaml_ng::from_str(&text).expect("yaml");
-    let cfg: ManagerConfig = serde_yaml_ng::from_value(doc["robot_manager"]["ros__parameters"]["manager"].clone()).expect("manager block");
-    assert!(cfg.turn.problem().is_none());
-    cfg
-}
 
 /// Coffee-cooperative seed 7's failure, without DDS: the jar's carry over the cup was previewed
 /// while the person still had the bottle (not at rest: not avoided), the bottle was then put

@@ -251,3 +251,25 @@ pub fn orders(out: &[Output]) -> Vec<cowork_manager::MotionOrder> {
         })
         .collect()
 }
+
+/// The repository root.
+pub fn root() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../..")
+}
+
+/// The `controller:` block of config/ds_controller.yaml: what the node previews with.
+pub fn controller() -> cowork_ds::ControllerConfig {
+    let text = std::fs::read_to_string(root().join("config/ds_controller.yaml")).expect("ds_controller.yaml");
+    let doc: serde_yaml_ng::Value = serde_yaml_ng::from_str(&text).expect("yaml");
+    serde_yaml_ng::from_value(doc["ds_controller"]["ros__parameters"]["controller"].clone()).expect("controller block")
+}
+
+/// The manager block of config/robot_manager.yaml (the kitchen arm), as the node reads it.
+pub fn bundled_config() -> cowork_manager::ManagerConfig {
+    let text = std::fs::read_to_string(root().join("config/robot_manager.yaml")).expect("robot_manager.yaml");
+    let doc: serde_yaml_ng::Value = serde_yaml_ng::from_str(&text).expect("yaml");
+    let cfg: cowork_manager::ManagerConfig =
+        serde_yaml_ng::from_value(doc["robot_manager"]["ros__parameters"]["manager"].clone()).expect("manager block");
+    assert!(cfg.turn.problem().is_none());
+    cfg
+}
