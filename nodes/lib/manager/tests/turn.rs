@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{bundled_config, controller, root};
+use common::{bundled_config, controller};
 use cowork_manager::{
     ActionRequest, Database, Input, Manager, ManagerConfig, MotionOrder, MotionPlan, ObjectReport, Output, PreviewPath, Previewer, Stamp,
     WorldReport,
@@ -23,10 +23,8 @@ struct Kitchen {
 }
 
 fn kitchen() -> Kitchen {
-    let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("urdf");
-    let scene = Scene::from_file(&root().join("config/scenes/kitchen.yaml")).expect("scene");
+    let (model, scene, db) = common::kitchen_parts();
     let previewer = Previewer::new(model.clone(), controller(), scene.objects.iter().map(|o| (o.name.clone(), o.shape)), 0.005).expect("previewer");
-    let db = Database::load(&root().join("config/learned/primitives/lwr.primitives.json")).expect("learned database");
     Kitchen { model, previewer, db, scene }
 }
 

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{bundled_config, controller, root};
+use common::{bundled_config, controller};
 use cowork_manager::{
     ActionRequest, Database, Input, Manager, ManagerConfig, MotionOrder, MotionPlan, MotionReport, MotionState, ObjectReport, Output,
     Previewer, Stamp, WorldReport,
@@ -28,9 +28,7 @@ struct Kitchen {
 }
 
 fn kitchen() -> Kitchen {
-    let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("urdf");
-    let scene = Scene::from_file(&root().join("config/scenes/kitchen.yaml")).expect("scene");
-    let db = Database::load(&root().join("config/learned/primitives/lwr.primitives.json")).expect("learned database");
+    let (model, scene, db) = common::kitchen_parts();
     let ready = deg(scene.initial_joints_deg());
     Kitchen { model, scene, db, ready }
 }

@@ -273,3 +273,12 @@ pub fn bundled_config() -> cowork_manager::ManagerConfig {
     assert!(cfg.turn.problem().is_none());
     cfg
 }
+
+/// The kitchen arm and what it works with: the LWR model, config/scenes/kitchen.yaml and the
+/// coffee task's learned primitives (config/learned).
+pub fn kitchen_parts() -> (cowork_robot::RobotModel, cowork_sim::Scene, cowork_manager::Database) {
+    let model = cowork_robot::RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("urdf");
+    let scene = cowork_sim::Scene::from_file(&root().join("config/scenes/kitchen.yaml")).expect("scene");
+    let db = cowork_manager::Database::load(&root().join("config/learned/primitives/lwr.primitives.json")).expect("learned database");
+    (model, scene, db)
+}
