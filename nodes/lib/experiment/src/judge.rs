@@ -135,6 +135,28 @@ pub struct Approach {
     pub body_part: String,
 }
 
+/// One contact between the robot and the person (clear → touching), and who was moving into
+/// whom then: under speed and separation monitoring (ISO/TS 15066) the robot must be standing,
+/// or here moving away, when a person touches it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Contact {
+    /// Simulated time (s).
+    pub t_s: f64,
+    /// Robot link.
+    pub link: String,
+    /// Body capsule of the person.
+    pub body_part: String,
+    /// The robot's speed at the contact point towards the person (m/s, from the executed
+    /// joint speeds of `/joint_states`; negative: moving away).
+    pub robot_closing_m_s: f64,
+    /// The person's speed towards the robot there (m/s): the distance's rate over the last
+    /// skeleton frame less the robot's part.
+    pub person_closing_m_s: f64,
+}
+
+/// Contacts kept per trial (every one is counted).
+const CONTACTS_KEPT: usize = 32;
+
 /// The tool's speed against the speed α_h allowed (the newest `/human/state` at that time).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SpeedPeak {
@@ -160,6 +182,10 @@ pub struct Judge {
     in_contact: bool,
     /// clear → touching transitions.
     pub collisions: u32,
+    /// The first [`CONTACTS_KEPT`] of them.
+    pub contacts: Vec<Contact>,
+    /// Executed joint speeds of the newest joint state (rad/s), when it had them.
+    qdot: Option<JointVector>,
     /// Newest simulated time seen (s).
     pub now: f64,
     first_world: Option<WorldState>,
@@ -193,6 +219,8 @@ impl Judge {
             people: BTreeMap::new(),
             in_contact: false,
             collisions: 0,
+            contacts: Vec::new(),
+            qdot: None,
             now: 0.0,
             first_world: None,
             last_world: None,
@@ -237,6 +265,15 @@ impl Judge {
             self.series.executed_qdot.push((t, n));
         }
         self.q = Some((t, q));
+        self.qdot = (msg.velocity.len() == msg.name.len()).then(|| {
+            let mut v = JointVector::zeros();
+            for (k, i) in self.joint_index.iter().enumerate() {
+                if let Some(i) = i {
+                    v[*i] = msg.velocity[k];
+                }
+            }
+            v
+        }).filter(|v| v.iter().all(|x| x.is_finite()));
     }
 
     /// `/human/skeleton`: the true body; the distance is evaluated at every frame.
@@ -276,33 +313,54 @@ impl Judge {
             return;
         }
         let touching = d <= 0.0;
+        let previous = self.series.distance.last().copied();
+        self.series.distance.push((t, d));
         if touching && !self.in_contact {
             self.collisions += 1;
+            if self.contacts.len() < CONTACTS_KEPT {
+                let contact = self.contact(&obstacles, t, previous.map(|(s, p)| (t - s, d - p)));
+                self.contacts.push(contact);
+            }
         }
         self.in_contact = touching;
-        self.series.distance.push((t, d));
         if self.closest.as_ref().is_none_or(|c| d < c.distance_m) {
-            // Which link and body part: each capsule on its own (only at a new minimum).
-            let mut best = (f64::INFINITY, "", String::new());
-            for o in &obstacles {
-                let (_, c) = self
-                    .geometry
-                    .distances(&self.poses, std::slice::from_ref(o), t);
-                if c.human_distance < best.0 {
-                    let link = c
-                        .link
-                        .and_then(|l| self.model.link_names().get(l).cloned())
-                        .unwrap_or_default();
-                    best = (c.human_distance, o.name, link);
-                }
-            }
-            self.closest = Some(Approach {
-                t_s: t,
-                distance_m: d,
-                link: best.2,
-                body_part: best.1.to_owned(),
-            });
+            let (_, body_part, link, _) = self.nearest_pair(&obstacles, t);
+            self.closest = Some(Approach { t_s: t, distance_m: d, link, body_part: body_part.to_owned() });
         }
+    }
+
+    /// The body capsule and the link closest to each other (each capsule on its own): the
+    /// distance (m), the capsule's name, the link's name and index.
+    fn nearest_pair(&self, obstacles: &[Obstacle], t: f64) -> (f64, &'static str, String, Option<usize>) {
+        let mut best = (f64::INFINITY, "", String::new(), None);
+        for o in obstacles {
+            let (_, c) = self.geometry.distances(&self.poses, std::slice::from_ref(o), t);
+            if c.human_distance < best.0 {
+                let link = c.link.and_then(|l| self.model.link_names().get(l).cloned()).unwrap_or_default();
+                best = (c.human_distance, o.name, link, c.link);
+            }
+        }
+        best
+    }
+
+    /// The contact starting now (the poses are at the current joints); `rate` is the time and
+    /// the change of the distance since the previous skeleton frame (s, m).
+    fn contact(&self, obstacles: &[Obstacle], t: f64, rate: Option<(f64, f64)>) -> Contact {
+        let (_, body_part, link, index) = self.nearest_pair(obstacles, t);
+        let robot_closing = (|| {
+            let (l, qdot) = (index?, self.qdot?);
+            let part = obstacles.iter().find(|o| o.name == body_part)?;
+            let (d, _) = self.geometry.distances(&self.poses, std::slice::from_ref(part), t);
+            let at = d.links.get(l).filter(|x| x.valid)?;
+            let mut pj = cowork_robot::PositionJacobian::zeros();
+            let in_link = self.poses.get(l).inverse_transform_point(&at.robot_point);
+            self.model.position_jacobian(&self.poses, l, &in_link, &mut pj);
+            // The normal points out of the body, towards the robot.
+            Some(-(pj * qdot).dot(&at.normal))
+        })()
+        .unwrap_or(f64::NAN);
+        let closing = rate.filter(|(dt, _)| *dt > 1e-6 && *dt <= 0.05).map_or(f64::NAN, |(dt, dd)| -dd / dt);
+        Contact { t_s: t, link, body_part: body_part.to_owned(), robot_closing_m_s: robot_closing, person_closing_m_s: closing - robot_closing }
     }
 
     /// `/fded/distances`.

@@ -270,6 +270,46 @@ fn judge_measures_the_true_distance_and_counts_a_contact_once() {
     assert!(first > 1.0, "starts far: {first}");
     assert!(judge.min_distance().unwrap() <= 0.0, "walks into the arm");
     assert_eq!(judge.collisions, 1, "one clear -> touching transition");
+    // The arm stood still: the person walked into it.
+    let c = &judge.contacts[0];
+    assert!(c.robot_closing_m_s.abs() < 1e-9, "{c:?}");
+    assert!(c.person_closing_m_s > 0.3, "{c:?}");
+}
+
+#[test]
+fn a_contact_says_the_robot_moved_into_a_person_standing_still() {
+    let model = model();
+    let mut judge = Judge::new(model.clone(), cowork_people::DEFAULT_FLOOR_Z).unwrap();
+    // Someone standing beside the arm, to its left (+y), facing it.
+    let p = Performer::new(1, BodySize::MEDIUM, Stance::new(0.35, 0.55, -std::f64::consts::FRAC_PI_2), 1)
+        .unwrap()
+        .then(Action::Stand { duration: 4.0 })
+        .unwrap();
+    let mut tl = Timeline::new();
+    tl.add(0.0, p).unwrap();
+    // Joint 1 turns the arm towards them at 1 rad/s.
+    let mut t = 0.0;
+    while t <= tl.duration() {
+        let mut js = joints(t, &model);
+        js.position[0] = t;
+        js.velocity[0] = 1.0;
+        judge.on_joint_state(&js);
+        for (id, pose) in tl.poses_at(t) {
+            let meta = MessageMeta {
+                stamp: Time::from_secs_f64(t),
+                frame_id: cowork_people::BASE_FRAME,
+                source: "xsens",
+                person_id: id,
+                with_velocities: true,
+            };
+            judge.on_skeleton(&pose.to_message(&meta));
+        }
+        t += 1.0 / 120.0;
+    }
+    assert!(judge.collisions >= 1, "the arm swept into them: closest {:?}", judge.closest);
+    let c = &judge.contacts[0];
+    assert!(c.robot_closing_m_s > 0.1, "{c:?}");
+    assert!(c.person_closing_m_s.abs() < 0.5 * c.robot_closing_m_s, "{c:?}");
 }
 
 #[test]

@@ -913,13 +913,9 @@ impl Manager {
         // The yaw in use is kept when it reaches with the clearance; a turn must also keep the
         // joints off their limits and the wrist off its singularity.
         let clear = |r: &Previewed| r.0.reached && r.0.clearance_m >= cfg.clearance_m;
-        let supple = |r: &Previewed| r.0.joint_margin_rad >= cfg.joint_margin_deg.to_radians();
-        let good = |r: &Previewed| clear(r) && supple(r);
-        // Failing that: reaching first, then passing (half the clearance: beyond the damper's
-        // stop), then the margin, then the clearance — a supple turn 1 cm from the bottle held
-        // seed 7's pour for 120 s.
-        let passable = |r: &Previewed| r.0.clearance_m >= 0.5 * cfg.clearance_m;
-        let rank = |r: &Previewed| (r.0.reached, passable(r), supple(r), r.0.clearance_m);
+        let good = |r: &Previewed| clear(r) && r.0.joint_margin_rad >= cfg.joint_margin_deg.to_radians();
+        // Failing that, ranked by `TurnConfig::rank`.
+        let rank = |r: &Previewed| cfg.rank(&r.0);
         // Of (height or turn, preview) pairs, the best ranked that reaches (the first of equals).
         let best_reaching = |candidates: &mut dyn Iterator<Item = (f64, Previewed)>| {
             candidates.filter(|(_, r)| r.0.reached).fold(None::<(f64, Previewed)>, |b, (k, r)| match b {

@@ -376,6 +376,17 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
                 ),
                 None => println!("  nobody passed by (--no-person)"),
             }
+            for c in &p.contacts {
+                println!(
+                    "  contact at {:.2} s: {}–{}, the robot moving {:.2} m/s towards the person ({}), the person {:.2} m/s towards the robot",
+                    c.t_s,
+                    c.link,
+                    c.body_part,
+                    c.robot_closing_m_s,
+                    if c.robot_closing_m_s > 0.0 { "into them" } else { "away" },
+                    c.person_closing_m_s
+                );
+            }
             if let (Some(f), Some(o)) = (&p.fastest_tool, &p.fastest_tool_far) {
                 println!(
                     "  tool: fastest against the allowed speed {:.3} m/s at {:.1} s (α_h allowed {:.2} m/s); nobody close {:.3} m/s at {:.1} s (allowed {:.2} m/s)",

@@ -7,7 +7,7 @@
 //! time the slow-down cost, from the observer's `/human/state`.
 
 use anyhow::Result;
-use cowork_experiment::judge::{Approach, Judge, Series, SpeedPeak};
+use cowork_experiment::judge::{Approach, Contact, Judge, Series, SpeedPeak};
 use cowork_experiment::plan::{Variant, Visit, visitor};
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{HumanState, LinkDistances, Skeleton, WorldState};
@@ -45,6 +45,8 @@ pub struct PersonOutcome {
     pub closest: Option<Approach>,
     /// Robot–body contacts (clear → touching).
     pub collisions: u32,
+    /// The first of them: where, and who was moving into whom.
+    pub contacts: Vec<Contact>,
     /// Simulated time the slow-down cost: ∫ (1 − v / v_far) dt over the execution, with v the
     /// observer's speed scale and v_far its value with nobody near, s.
     pub slowed_cost_s: f64,
@@ -175,6 +177,7 @@ impl PasserBy {
             min_distance_m: self.judge.min_distance(),
             closest: self.judge.closest.clone(),
             collisions: self.judge.collisions,
+            contacts: self.judge.contacts.clone(),
             slowed_cost_s: self.slowed_cost_s,
             stopped_s: self.stopped_s,
             frames_dropped: self.frames_dropped,
