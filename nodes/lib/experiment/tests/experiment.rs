@@ -231,6 +231,20 @@ fn joints(t: f64, model: &RobotModel) -> JointState {
     }
 }
 
+/// The people of `tl` at `t` (s) into `judge`, as the runner sends them.
+fn skeletons_at(judge: &mut Judge, tl: &Timeline, t: f64) {
+    for (id, pose) in tl.poses_at(t) {
+        let meta = MessageMeta {
+            stamp: Time::from_secs_f64(t),
+            frame_id: cowork_people::BASE_FRAME,
+            source: "xsens",
+            person_id: id,
+            with_velocities: true,
+        };
+        judge.on_skeleton(&pose.to_message(&meta));
+    }
+}
+
 #[test]
 fn judge_measures_the_true_distance_and_counts_a_contact_once() {
     let model = model();
@@ -254,16 +268,7 @@ fn judge_measures_the_true_distance_and_counts_a_contact_once() {
     tl.add(0.0, p).unwrap();
     let mut t = 0.0;
     while t <= tl.duration() {
-        for (id, pose) in tl.poses_at(t) {
-            let meta = MessageMeta {
-                stamp: Time::from_secs_f64(t),
-                frame_id: cowork_people::BASE_FRAME,
-                source: "xsens",
-                person_id: id,
-                with_velocities: true,
-            };
-            judge.on_skeleton(&pose.to_message(&meta));
-        }
+        skeletons_at(&mut judge, &tl, t);
         t += 1.0 / 60.0;
     }
     let first = judge.series.distance.first().unwrap().1;
@@ -294,16 +299,7 @@ fn a_contact_says_the_robot_moved_into_a_person_standing_still() {
         js.position[0] = t;
         js.velocity[0] = 1.0;
         judge.on_joint_state(&js);
-        for (id, pose) in tl.poses_at(t) {
-            let meta = MessageMeta {
-                stamp: Time::from_secs_f64(t),
-                frame_id: cowork_people::BASE_FRAME,
-                source: "xsens",
-                person_id: id,
-                with_velocities: true,
-            };
-            judge.on_skeleton(&pose.to_message(&meta));
-        }
+        skeletons_at(&mut judge, &tl, t);
         t += 1.0 / 120.0;
     }
     assert!(judge.collisions >= 1, "the arm swept into them: closest {:?}", judge.closest);

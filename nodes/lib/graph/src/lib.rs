@@ -4,8 +4,10 @@
 //!
 //! A [`Graph`] runs node binaries on one private `ROS_DOMAIN_ID`, each with its stdout and
 //! stderr in `<logs>/<name>.log`; it names the first process that died (exit status, end of its
-//! log) and stops them all with SIGINT (the nodes save what they learned and stop cleanly), then
-//! SIGKILL after 5 s — also when dropped, so a failing caller leaves nothing running.
+//! log) and stops them all as `ros2 launch` does: SIGINT (the nodes save what they learned and
+//! stop cleanly), SIGTERM after 2 s to any still running (a process started with SIGINT ignored,
+//! as `nohup … &` from a script leaves its children), SIGKILL after 5 s — also when dropped, so
+//! a failing caller leaves nothing running.
 //! [`TeachingFeed`] plays kinesthetic demonstrations (the `/external_wrench` and
 //! `/speech_command` of one or more bags) into such a graph on the simulated clock.
 //!
@@ -123,6 +125,8 @@ pub struct Graph {
 
 /// Seconds a node gets to stop after SIGINT before it is killed.
 pub const STOP_GRACE_S: f64 = 5.0;
+/// Seconds after SIGINT when a node still running gets SIGTERM.
+pub const SIGTERM_AFTER_S: f64 = 2.0;
 
 impl Graph {
     /// No process yet; `logs` is created.
@@ -205,26 +209,19 @@ impl Graph {
         self.exited().map_or(Ok(()), Err)
     }
 
-    /// Stops one process by name (SIGINT, SIGKILL after [`STOP_GRACE_S`]); `false` when no
-    /// process has that name.
+    /// Stops one process by name (SIGINT, SIGTERM after [`SIGTERM_AFTER_S`], SIGKILL after
+    /// [`STOP_GRACE_S`]); `false` when no process has that name.
     pub fn stop_one(&mut self, name: &str) -> bool {
         let Some(i) = self.procs.iter().position(|p| p.name == name) else { return false };
         let mut p = self.procs.remove(i);
-        interrupt(&mut p);
-        reap(&mut p, Instant::now() + Duration::from_secs_f64(STOP_GRACE_S));
+        stop_all(std::slice::from_mut(&mut p));
         true
     }
 
-    /// Stops every process: SIGINT to all, then SIGKILL to those still running after
-    /// [`STOP_GRACE_S`].
+    /// Stops every process: SIGINT to all, SIGTERM to those still running after
+    /// [`SIGTERM_AFTER_S`], SIGKILL after [`STOP_GRACE_S`].
     pub fn stop(&mut self) {
-        for p in &mut self.procs {
-            interrupt(p);
-        }
-        let deadline = Instant::now() + Duration::from_secs_f64(STOP_GRACE_S);
-        for p in &mut self.procs {
-            reap(p, deadline);
-        }
+        stop_all(&mut self.procs);
         self.procs.clear();
     }
 }
@@ -235,26 +232,54 @@ impl Drop for Graph {
     }
 }
 
-fn interrupt(p: &mut Proc) {
-    if matches!(p.child.try_wait(), Ok(None))
+/// Whether `p` is still running.
+fn running(p: &mut Proc) -> bool {
+    matches!(p.child.try_wait(), Ok(None))
+}
+
+fn signal(p: &mut Proc, signal: nix::sys::signal::Signal) {
+    if running(p)
         && let Ok(pid) = i32::try_from(p.child.id())
     {
-        let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), nix::sys::signal::Signal::SIGINT);
+        let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(pid), signal);
     }
 }
 
-fn reap(p: &mut Proc, deadline: Instant) {
+/// SIGINT to every process of `procs`, SIGTERM to those running after [`SIGTERM_AFTER_S`],
+/// SIGKILL to those running after [`STOP_GRACE_S`]; returns when all have exited.
+fn stop_all(procs: &mut [Proc]) {
+    use nix::sys::signal::Signal;
+    let start = Instant::now();
+    procs.iter_mut().for_each(|p| signal(p, Signal::SIGINT));
+    let mut termed = false;
     loop {
-        match p.child.try_wait() {
-            Ok(Some(_)) | Err(_) => return,
-            Ok(None) if Instant::now() >= deadline => {
-                tracing::warn!("{} did not stop within {STOP_GRACE_S} s of SIGINT; killing it", p.name);
-                let _ = p.child.kill();
-                let _ = p.child.wait();
-                return;
-            }
-            Ok(None) => std::thread::sleep(Duration::from_millis(20)),
+        let left = procs.iter_mut().map(running).filter(|r| *r).count();
+        let waited = start.elapsed().as_secs_f64();
+        if left == 0 {
+            break;
         }
+        if waited >= STOP_GRACE_S {
+            for p in procs.iter_mut() {
+                if running(p) {
+                    tracing::warn!("{} did not stop within {STOP_GRACE_S} s of SIGINT and SIGTERM; killing it", p.name);
+                    let _ = p.child.kill();
+                }
+            }
+            break;
+        }
+        if !termed && waited >= SIGTERM_AFTER_S {
+            termed = true;
+            for p in procs.iter_mut() {
+                if running(p) {
+                    tracing::warn!("{} did not stop within {SIGTERM_AFTER_S} s of SIGINT; sending SIGTERM", p.name);
+                    signal(p, Signal::SIGTERM);
+                }
+            }
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    for p in procs.iter_mut() {
+        let _ = p.child.wait();
     }
 }
 
@@ -298,16 +323,22 @@ mod tests {
     }
 
     #[test]
-    fn stop_kills_a_process_that_ignores_sigint() {
+    fn stop_escalates_to_sigterm_then_sigkill() {
         let dir = tempfile::tempdir().unwrap();
         let mut g = Graph::new(7, dir.path()).unwrap();
-        g.spawn("stubborn", &sh(), &["-c", "trap '' INT; exec sleep 60"]).unwrap();
+        g.spawn("stubborn", &sh(), &["-c", "trap '' INT TERM; exec sleep 60"]).unwrap();
+        // Started with SIGINT ignored, as `nohup … &` from a script leaves a child.
+        g.spawn("deaf", &sh(), &["-c", "trap '' INT; exec sleep 60"]).unwrap();
         g.spawn("polite", &sh(), &["-c", "exec sleep 60"]).unwrap();
         std::thread::sleep(Duration::from_millis(200));
         let t = Instant::now();
         assert!(g.stop_one("polite"));
-        assert!(t.elapsed() < Duration::from_secs(3), "SIGINT stopped the polite one at once");
+        assert!(t.elapsed() < Duration::from_secs_f64(SIGTERM_AFTER_S + 1.0), "SIGINT or SIGTERM stopped the polite one");
         assert!(!g.stop_one("polite"));
+        let t = Instant::now();
+        assert!(g.stop_one("deaf"));
+        let took = t.elapsed().as_secs_f64();
+        assert!((SIGTERM_AFTER_S - 0.5..STOP_GRACE_S - 0.5).contains(&took), "SIGTERM stopped the deaf one: {took} s");
         let t = Instant::now();
         g.stop();
         let took = t.elapsed().as_secs_f64();

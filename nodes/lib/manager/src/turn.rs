@@ -166,16 +166,20 @@ impl TurnConfig {
     /// How a previewed motion ranks against another that is not good enough (tuples compare
     /// in order, larger is better): reaching first; then passing (half `clearance_m`: beyond
     /// the damper's stop — a supple turn 1 cm from the bottle held coffee-cooperative seed 7's
-    /// pour for 120 s); then the joint margin up to `joint_margin_deg`, rad (a turn with none
-    /// left rides a limit: seed 6's pour turned +165° with 0° held 120 s, where the taught yaw
-    /// kept 9° and passed 3.4 cm from the bottle); then the clearance, m.
+    /// pour for 120 s); then the joint margin, rad; then the clearance, m. Of two that pass,
+    /// the one with more margin up to `joint_margin_deg` (a turn with none left rides a limit:
+    /// seed 6's pour turned +165° with 0° held 120 s, where the taught yaw kept 9° and passed
+    /// 3.4 cm from the bottle); of two that do not, the damper holds both and only a full margin
+    /// counts before the clearance (coffee seed 9's spoon carry, turned to 0 cm from the jar
+    /// for 3° more margin, was held 120 s).
     pub fn rank(&self, r: &PreviewRun) -> (bool, bool, f64, f64) {
-        (
-            r.reached,
-            r.clearance_m >= 0.5 * self.clearance_m,
-            r.joint_margin_rad.min(self.joint_margin_deg.to_radians()),
-            r.clearance_m,
-        )
+        let (passable, margin) = (r.clearance_m >= 0.5 * self.clearance_m, self.joint_margin_deg.to_radians());
+        let margin_kept = match (passable, r.joint_margin_rad >= margin) {
+            (_, true) => margin,
+            (true, false) => r.joint_margin_rad,
+            (false, false) => 0.0,
+        };
+        (r.reached, passable, margin_kept, r.clearance_m)
     }
 
     /// The turns to try (rad), the last one `last` first, then by distance from it.
@@ -607,6 +611,10 @@ mod tests {
         assert!(c.rank(&run(true, 0.034, 9.0)) > c.rank(&run(true, 0.087, 0.0)));
         // Passing comes before the margin (seed 7: a supple turn 1 cm from the bottle).
         assert!(c.rank(&run(true, 0.034, 0.0)) > c.rank(&run(true, 0.010, 40.0)));
+        // Neither passing: the damper holds both; a margin short of 15° does not beat the
+        // clearance (coffee seed 9's spoon carry, 0 cm from the jar with 3°).
+        assert!(c.rank(&run(true, 0.020, 0.0)) > c.rank(&run(true, 0.000, 3.0)));
+        assert!(c.rank(&run(true, 0.000, 15.0)) > c.rank(&run(true, 0.020, 14.0)));
         // Enough margin is enough: then the clearance decides.
         assert!(c.rank(&run(true, 0.050, 16.0)) > c.rank(&run(true, 0.040, 60.0)));
         // Reaching comes first of all.
