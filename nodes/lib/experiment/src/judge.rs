@@ -330,14 +330,16 @@ impl Judge {
     }
 
     /// The body capsule and the link closest to each other (each capsule on its own): the
-    /// distance (m), the capsule's name, the link's name and index.
-    fn nearest_pair(&self, obstacles: &[Obstacle], t: f64) -> (f64, &'static str, String, Option<usize>) {
+    /// distance (m), the capsule's name, the link's name, and the link's index with its closest
+    /// point and the body's outward normal there (base frame).
+    fn nearest_pair(&self, obstacles: &[Obstacle], t: f64) -> (f64, &'static str, String, Option<(usize, Point3<f64>, Vector3<f64>)>) {
         let mut best = (f64::INFINITY, "", String::new(), None);
         for o in obstacles {
-            let (_, c) = self.geometry.distances(&self.poses, std::slice::from_ref(o), t);
+            let (d, c) = self.geometry.distances(&self.poses, std::slice::from_ref(o), t);
             if c.human_distance < best.0 {
                 let link = c.link.and_then(|l| self.model.link_names().get(l).cloned()).unwrap_or_default();
-                best = (c.human_distance, o.name, link, c.link);
+                let at = c.link.and_then(|l| d.links.get(l).filter(|x| x.valid).map(|x| (l, x.robot_point, x.normal)));
+                best = (c.human_distance, o.name, link, at);
             }
         }
         best
@@ -346,17 +348,14 @@ impl Judge {
     /// The contact starting now (the poses are at the current joints); `rate` is the time and
     /// the change of the distance since the previous skeleton frame (s, m).
     fn contact(&self, obstacles: &[Obstacle], t: f64, rate: Option<(f64, f64)>) -> Contact {
-        let (_, body_part, link, index) = self.nearest_pair(obstacles, t);
+        let (_, body_part, link, closest) = self.nearest_pair(obstacles, t);
         let robot_closing = (|| {
-            let (l, qdot) = (index?, self.qdot?);
-            let part = obstacles.iter().find(|o| o.name == body_part)?;
-            let (d, _) = self.geometry.distances(&self.poses, std::slice::from_ref(part), t);
-            let at = d.links.get(l).filter(|x| x.valid)?;
+            let ((l, robot_point, normal), qdot) = (closest?, self.qdot?);
             let mut pj = cowork_robot::PositionJacobian::zeros();
-            let in_link = self.poses.get(l).inverse_transform_point(&at.robot_point);
+            let in_link = self.poses.get(l).inverse_transform_point(&robot_point);
             self.model.position_jacobian(&self.poses, l, &in_link, &mut pj);
             // The normal points out of the body, towards the robot.
-            Some(-(pj * qdot).dot(&at.normal))
+            Some(-(pj * qdot).dot(&normal))
         })()
         .unwrap_or(f64::NAN);
         let closing = rate.filter(|(dt, _)| *dt > 1e-6 && *dt <= 0.05).map_or(f64::NAN, |(dt, dd)| -dd / dt);
