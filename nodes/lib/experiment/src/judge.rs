@@ -154,6 +154,10 @@ pub struct Contact {
     pub person_closing_m_s: f64,
 }
 
+/// [`Judge::nearest_pair`]'s answer: distance (m), body capsule, link name, and the link's index
+/// with its closest point and the body's outward normal there (base frame).
+type NearestPair = (f64, &'static str, String, Option<(usize, Point3<f64>, Vector3<f64>)>);
+
 /// Contacts kept per trial (every one is counted).
 const CONTACTS_KEPT: usize = 32;
 
@@ -332,7 +336,7 @@ impl Judge {
     /// The body capsule and the link closest to each other (each capsule on its own): the
     /// distance (m), the capsule's name, the link's name, and the link's index with its closest
     /// point and the body's outward normal there (base frame).
-    fn nearest_pair(&self, obstacles: &[Obstacle], t: f64) -> (f64, &'static str, String, Option<(usize, Point3<f64>, Vector3<f64>)>) {
+    fn nearest_pair(&self, obstacles: &[Obstacle], t: f64) -> NearestPair {
         let mut best = (f64::INFINITY, "", String::new(), None);
         for o in obstacles {
             let (d, c) = self.geometry.distances(&self.poses, std::slice::from_ref(o), t);
