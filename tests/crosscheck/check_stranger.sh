@@ -3,8 +3,8 @@
 # running graph — lwr_sim, fded_distance, human_observer, ds_controller as separate release
 # processes on a private domain with the bundled parameters and lwr_sim's simulated clock — while
 # a person stands close to the arm and the arm runs a task. Prints per attack class the messages
-# sent, the nodes alive after, the largest tool / joint speed and whether it got through, then one
-# chaos case (fded_distance killed and restarted); fails on a dead node or an attack that moved the arm faster
+# sent, the nodes alive after, the largest tool / joint speed and whether it got through, then two
+# chaos cases (fded_distance stopped and continued, then killed and restarted); fails on a dead node or an attack that moved the arm faster
 # than the person's presence allows.
 #
 #   tests/crosscheck/run.sh stranger

@@ -29,6 +29,7 @@
 //! ```
 
 pub mod config;
+pub mod dds_threads;
 pub mod graph;
 pub mod input;
 mod joints;
@@ -269,7 +270,12 @@ impl NodeArgs {
 /// [`start_node`] in [`ros_args`]), the rest parsed into `A` (clap's usage errors and `--help`
 /// as usual), then `run`, ending as [`exit_code`] says (one line `error: ...` on failure, a
 /// backtrace only with `RUST_BACKTRACE=1`).
-pub fn node_main<A: clap::Parser>(run: impl FnOnce(A) -> anyhow::Result<()>) -> std::process::ExitCode {
+///
+/// While `run` runs, a watchdog checks every [`DDS_WATCH_PERIOD`] that the process's DDS
+/// threads still run ([`dds_threads`]); when they ended (the process was stopped and continued)
+/// it stops `run` as Ctrl-C would and runs it again on fresh arguments, as a launcher's
+/// respawn would: what the node held in memory starts over.
+pub fn node_main<A: clap::Parser>(run: impl Fn(A) -> anyhow::Result<()>) -> std::process::ExitCode {
     init_logging();
     let (args, ros) = match split_ros_args(std::env::args_os().collect()) {
         Ok(split) => split,
@@ -278,7 +284,39 @@ pub fn node_main<A: clap::Parser>(run: impl FnOnce(A) -> anyhow::Result<()>) -> 
     if ROS_ARGS.set(ros).is_err() {
         return exit_code(Err(anyhow::anyhow!("node_main was called twice in one process")));
     }
-    exit_code(run(A::parse_from(args)))
+    if let Err(e) = std::thread::Builder::new().name("dds-watchdog".into()).spawn(watch_dds_threads) {
+        tracing::warn!("cannot start the DDS watchdog ({e}); a node stopped and continued may stay silent");
+    }
+    loop {
+        let result = run(A::parse_from(args.clone()));
+        if shutdown::take_restart() && !shutdown::signalled() {
+            let ended = match &result {
+                Ok(()) => "its run ended".to_owned(),
+                Err(e) => one_line(e),
+            };
+            tracing::warn!("restarting the node in this process ({ended})");
+            continue;
+        }
+        return exit_code(result);
+    }
+}
+
+/// How often [`node_main`]'s watchdog looks at the DDS threads.
+pub const DDS_WATCH_PERIOD: std::time::Duration = std::time::Duration::from_millis(250);
+
+fn watch_dds_threads() {
+    loop {
+        std::thread::sleep(DDS_WATCH_PERIOD);
+        if shutdown::requested() {
+            continue;
+        }
+        if let Some(missing) = dds_threads::lost() {
+            tracing::error!(
+                "the DDS threads of this process ended ({missing}; RustDDS leaves them on EINTR, which a stopped and continued process gets): restarting the node"
+            );
+            shutdown::request_restart();
+        }
+    }
 }
 
 /// `s` seconds as a [`std::time::Duration`] that never panics: NaN and negative values give

@@ -1,6 +1,6 @@
 use std::marker::PhantomData;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicI64, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicI64, AtomicU64, Ordering};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::{Context as _, Result, bail};
@@ -43,7 +43,9 @@ pub struct TopicInfo {
 
 /// A ROS 2 node on the domain given by `ROS_DOMAIN_ID` (0 when unset).
 pub struct RosNode {
-    // Field order matters: the node must drop before its context.
+    // Field order matters: the participant stops counting as alive first, then the node
+    // drops before its context.
+    _live: crate::dds_threads::Live,
     pub(crate) node: Node,
     pub(crate) context: Context,
     name: String,
@@ -51,7 +53,17 @@ pub struct RosNode {
     namespace: String,
     /// Latest `/clock` time, ns; negative until the first tick when `use_sim_time`.
     sim_time_ns: Option<Arc<AtomicI64>>,
-    _clock: Option<std::thread::JoinHandle<()>>,
+    /// The `/clock` follower and its stop flag (raised and joined on drop).
+    clock: Option<(Arc<AtomicBool>, std::thread::JoinHandle<()>)>,
+}
+
+impl Drop for RosNode {
+    fn drop(&mut self) {
+        if let Some((stop, handle)) = self.clock.take() {
+            stop.store(true, Ordering::SeqCst);
+            let _ = handle.join();
+        }
+    }
 }
 
 impl std::fmt::Debug for RosNode {
@@ -230,12 +242,13 @@ impl RosNode {
             })
             .context("cannot start the spinner thread")?;
         let mut this = Self {
+            _live: crate::dds_threads::Live::counted(),
             node,
             context,
             name: name.to_owned(),
             namespace: config.namespace.clone(),
             sim_time_ns: None,
-            _clock: None,
+            clock: None,
         };
         if config.use_sim_time {
             this.follow_clock()?;
@@ -247,10 +260,12 @@ impl RosNode {
         let clock = self.subscription::<Clock>("/clock", &qos::clock())?;
         let time = Arc::new(AtomicI64::new(-1));
         let shared = Arc::clone(&time);
+        let stop = Arc::new(AtomicBool::new(false));
+        let stopped = Arc::clone(&stop);
         let handle = std::thread::Builder::new()
             .name(format!("{}-clock", self.name))
             .spawn(move || {
-                while !crate::shutdown::requested() {
+                while !stopped.load(Ordering::SeqCst) && !crate::shutdown::requested() {
                     match clock.recv_timeout(Duration::from_millis(100)) {
                         Some(c) => shared.store(c.clock.to_nanos(), Ordering::Release),
                         None => continue,
@@ -259,7 +274,7 @@ impl RosNode {
             })
             .context("cannot start the clock thread")?;
         self.sim_time_ns = Some(time);
-        self._clock = Some(handle);
+        self.clock = Some((stop, handle));
         Ok(())
     }
 

@@ -1,10 +1,15 @@
-//! Clean stop on Ctrl-C (SIGINT) and SIGTERM.
+//! Clean stop on Ctrl-C (SIGINT) and SIGTERM, and the stop [`crate::node_main`] asks for to
+//! restart a node whose DDS threads ended ([`crate::dds_threads`]).
 
 use std::sync::Arc;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 static FLAG: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
+/// Raised by [`request_restart`]: the node's loops end as on Ctrl-C, and `node_main` runs the
+/// node again instead of exiting.
+static RESTART: AtomicBool = AtomicBool::new(false);
 
 /// Installs the signal handler once and returns the flag it raises. Loops poll
 /// [`requested`]; dropping the node afterwards lets DDS tell its peers that it left.
@@ -20,7 +25,22 @@ pub fn install() -> Arc<AtomicBool> {
     .clone()
 }
 
-/// Whether a stop was requested.
+/// Whether a stop was requested (by a signal, or for a restart).
 pub fn requested() -> bool {
+    signalled() || RESTART.load(Ordering::SeqCst)
+}
+
+/// Whether Ctrl-C or SIGTERM asked the process to stop.
+pub fn signalled() -> bool {
     FLAG.get().is_some_and(|f| f.load(Ordering::SeqCst))
+}
+
+/// Ends the running node's loops (as [`requested`] says) so that `node_main` can run it again.
+pub(crate) fn request_restart() {
+    RESTART.store(true, Ordering::SeqCst);
+}
+
+/// Whether a restart was requested; clears the request.
+pub(crate) fn take_restart() -> bool {
+    RESTART.swap(false, Ordering::SeqCst)
 }
