@@ -171,9 +171,17 @@ pub const SUPPORTED: bool = cfg!(feature = "security");
 /// Days the certificates and documents of a new keystore are valid (as sros2: 10 years).
 const VALIDITY_DAYS: u32 = 3650;
 
-/// The governance sros2 writes: no unauthenticated participants, join access control,
-/// discovery and liveliness encrypted, RTPS signed, and on every topic read and write access
-/// control with data and metadata encrypted.
+/// The governance: no unauthenticated participants, join access control, discovery and
+/// liveliness encrypted, RTPS signed, and on every topic read and write access control with
+/// every submessage encrypted (`metadata_protection_kind` ENCRYPT: the DATA submessage with
+/// its payload, authenticated and confidential on the wire).
+///
+/// sros2 also sets `data_protection_kind` ENCRYPT (the payload encrypted once more, end to
+/// end). RustDDS 0.15.1 cannot decode such payloads from another process: with it, or with
+/// SIGN, every sample fails ("The ring crypto library gives 'Unspecified' error") and secured
+/// nodes exchange nothing; with every other kind as here they do
+/// (`tests/crosscheck/check_stranger.sh --secure`). So it is NONE here; a keystore made by
+/// `ros2 security` needs the same change (see the README).
 pub fn governance_xml(domain_min: u16, domain_max: u16) -> String {
     format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
@@ -199,7 +207,7 @@ pub fn governance_xml(domain_min: u16, domain_max: u16) -> String {
           <enable_read_access_control>true</enable_read_access_control>
           <enable_write_access_control>true</enable_write_access_control>
           <metadata_protection_kind>ENCRYPT</metadata_protection_kind>
-          <data_protection_kind>ENCRYPT</data_protection_kind>
+          <data_protection_kind>NONE</data_protection_kind>
         </topic_rule>
       </topic_access_rules>
     </domain_rule>
