@@ -3,9 +3,10 @@
 # so the wgpu path of fDED has an adapter to run on, and Chromium, which the cross-check group's
 # report check (tests/crosscheck/check_report.sh) runs headless to screenshot `cowork report`'s
 # index.html, and the openssl command, with which `cowork keystore` writes DDS Security keystores
-# (nodes/lib/ros/tests/security.rs). Idempotent; needs root (or sudo) to install.
+# (nodes/lib/ros/tests/security.rs), and libssl-dev + pkg-config, with which the secured peer of
+# tests/crosscheck/check_secure.sh builds (RustDDS security). Idempotent; needs root (or sudo).
 set -euo pipefail
-packages=(mesa-vulkan-drivers libvulkan1 chromium openssl)
+packages=(mesa-vulkan-drivers libvulkan1 chromium openssl libssl-dev pkg-config)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -172,16 +172,17 @@ pub const SUPPORTED: bool = cfg!(feature = "security");
 const VALIDITY_DAYS: u32 = 3650;
 
 /// The governance: no unauthenticated participants, join access control, discovery and
-/// liveliness encrypted, RTPS signed, and on every topic read and write access control with
-/// every submessage encrypted (`metadata_protection_kind` ENCRYPT: the DATA submessage with
-/// its payload, authenticated and confidential on the wire).
+/// liveliness encrypted, every RTPS message encrypted and authenticated
+/// (`rtps_protection_kind` ENCRYPT: each message between two participants, with their session
+/// keys), and on every topic read and write access control.
 ///
-/// sros2 also sets `data_protection_kind` ENCRYPT (the payload encrypted once more, end to
-/// end). RustDDS 0.15.1 cannot decode such payloads from another process: with it, or with
-/// SIGN, every sample fails ("The ring crypto library gives 'Unspecified' error") and secured
-/// nodes exchange nothing; with every other kind as here they do
-/// (`tests/crosscheck/check_stranger.sh --secure`). So it is NONE here; a keystore made by
-/// `ros2 security` needs the same change (see the README).
+/// sros2 writes RTPS SIGN with `metadata_protection_kind` and `data_protection_kind` ENCRYPT
+/// (each submessage, then each payload, protected per writer). RustDDS 0.15.1 fails those
+/// between processes ("The ring crypto library gives 'Unspecified' error"), measured one kind at
+/// a time on 2026-12-06: payload protection loses every sample; submessage protection works for
+/// a lone talker but loses all of lwr_sim's `/clock` and two thirds of its `/joint_states`.
+/// Message-level encryption delivers every topic at full rate, so both per-endpoint kinds are
+/// NONE here; a keystore made by `ros2 security` needs the same change (see the README).
 pub fn governance_xml(domain_min: u16, domain_max: u16) -> String {
     format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
@@ -198,7 +199,7 @@ pub fn governance_xml(domain_min: u16, domain_max: u16) -> String {
       <enable_join_access_control>true</enable_join_access_control>
       <discovery_protection_kind>ENCRYPT</discovery_protection_kind>
       <liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>
-      <rtps_protection_kind>SIGN</rtps_protection_kind>
+      <rtps_protection_kind>ENCRYPT</rtps_protection_kind>
       <topic_access_rules>
         <topic_rule>
           <topic_expression>*</topic_expression>
@@ -206,7 +207,7 @@ pub fn governance_xml(domain_min: u16, domain_max: u16) -> String {
           <enable_liveliness_protection>true</enable_liveliness_protection>
           <enable_read_access_control>true</enable_read_access_control>
           <enable_write_access_control>true</enable_write_access_control>
-          <metadata_protection_kind>ENCRYPT</metadata_protection_kind>
+          <metadata_protection_kind>NONE</metadata_protection_kind>
           <data_protection_kind>NONE</data_protection_kind>
         </topic_rule>
       </topic_access_rules>

@@ -191,7 +191,6 @@ fn enforce_refuses_to_start_without_usable_credentials_permissive_runs() {
 
 #[cfg(feature = "security")]
 #[test]
-#[ignore = "fails today: RustDDS 0.15.1 does not decrypt between two secured cowork processes (README: Status); run with --ignored"]
 fn secured_nodes_talk_and_peers_without_our_credentials_get_nothing_through() {
     let dir = tempfile::tempdir().expect("tempdir");
     let ks = dir.path().join("keystore");

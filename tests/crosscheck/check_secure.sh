@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# DDS Security in CI (issue #19): two cowork processes secured with a keystore from
+# `cowork keystore` exchange /speech_command while an independent Cyclone DDS peer without
+# credentials floods the same topic (stranger.py's `secure` mode). Passes when, with
+# ROS_SECURITY_STRATEGY=Enforce, the stranger gets 0 messages through and the member's do
+# arrive; without security both arrive (so the check can tell). Builds the secured peer with
+# `--features cowork_ros/security` (RustDDS's security plugins: openssl, ring), and first runs
+# cowork_ros's security tests with the feature (two secured processes talk; a peer without our
+# credentials and one with another CA's keystore get nothing through).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+cargo build --release --locked -p cowork_ros --features security --example secure_peer 2>&1 | tail -n 1
+if ! out=$(cargo test --release --locked -p cowork_ros --features security --test security 2>&1); then
+  echo "$out" | tail -n 40
+  echo "FAIL: cowork_ros security tests (--features security)"
+  exit 1
+fi
+echo "$out" | grep -E "^test |test result"
+exec bash tests/crosscheck/check_stranger.sh --secure
