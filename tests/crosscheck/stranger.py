@@ -749,6 +749,34 @@ def chaos(peer, cases):
     return failed
 
 
+def flood(domains, seconds):
+    """Mode `flood SECONDS [PID]`: no graph of its own; drives whatever graph runs on the
+    domains (the given one, or those `cowork experiment` with process id PID gives its first
+    trial: `cowork_graph::private_domain(120, 100, k)`, k = 0 teaching, 1 execution) with
+    direct joint commands (0.5 rad/s on joints 1 and 2) at 100 Hz, the one attack that gets
+    through without DDS security. For a secured graph against the same attack
+    (tests/reliability/secured_graph.sh). Prints how many it sent."""
+    qos = Qos(
+        Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=5)),
+        Policy.History.KeepLast(100),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
+    writers = []
+    for d in domains:
+        dp = DomainParticipant(d)
+        writers.append((dp, DataWriter(dp, Topic(dp, "rt/lwr/joint_velocity_command", Float64MultiArray), qos=qos)))
+    stop = []
+    signal.signal(signal.SIGTERM, lambda *_: stop.append(1))
+    sent, end = 0, time.monotonic() + seconds
+    while time.monotonic() < end and not stop:
+        for _, w in writers:
+            w.write(Float64MultiArray(MultiArrayLayout([], 0), [0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0]))
+        sent += 1
+        time.sleep(0.01)
+    print(f"flood: {sent} direct joint commands sent on each of domains {domains}", flush=True)
+    return 0
+
+
 SECURITY_VARS = ("ROS_SECURITY_ENABLE", "ROS_SECURITY_STRATEGY", "ROS_SECURITY_KEYSTORE", "ROS_SECURITY_ENCLAVE_OVERRIDE")
 
 
@@ -827,6 +855,13 @@ def main():
     only = os.environ.get("STRANGER_ONLY")
     root = os.path.abspath(os.path.join(os.path.dirname(__file__), "../.."))
     bin_dir = os.path.join(root, os.environ.get("BIN", "target/release"))
+    if mode == "flood":
+        seconds = float(args.pop(0)) if args else 60.0
+        domains = [domain]
+        if args:  # the pid of a `cowork experiment` run: its first trial's teaching and execution domains
+            pid = int(args.pop(0))
+            domains = [120 + ((pid * 7 + k) & 0xFFFFFFFF) % 100 for k in (0, 1)]
+        return flood(domains, seconds)
     if mode == "secure":
         failed = secure(domain, root, bin_dir)
         for f in failed:

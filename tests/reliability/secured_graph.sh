@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The stranger's one successful attack against the whole graph, without and with DDS security:
+# an independent Cyclone DDS peer without credentials floods /lwr/joint_velocity_command
+# (0.5 rad/s on joints 1 and 2, 100 Hz; stranger.py `flood`) for the whole of one pourDrink
+# trial (`cowork experiment pouring`: taught, executed, judged from the simulated world). Run
+# once unsecured, once with every process in its own enclave and ROS_SECURITY_STRATEGY=Enforce.
+# Needs the nodes and cowork built with security:
+#   cargo build --release --bins -p lwr_sim -p fded_distance -p human_observer -p ds_controller \
+#       -p robot_manager -p attentional_supervisor -p cowork --features cowork_ros/security
+#   VENV=.venv-crosscheck bash tests/reliability/secured_graph.sh [SEED]
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+: "${VENV:=.venv-crosscheck}"
+: "${ROS_DOMAIN_ID:=163}"
+export ROS_DOMAIN_ID CYCLONEDDS_URI="file://$PWD/tests/crosscheck/cyclonedds-loopback.xml"
+seed=${1:-1}
+out=$(mktemp -d /tmp/cowork-secured-graph-XXXX)
+ks=$out/keystore
+target/release/cowork keystore create "$ks" >/dev/null
+target/release/cowork keystore enclave "$ks" lwr_sim fded_distance human_observer ds_controller \
+  robot_manager attentional_supervisor cowork_teach cowork_experiment >/dev/null
+for secured in no yes; do
+  env=()
+  [[ $secured == yes ]] && env=(ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce ROS_SECURITY_KEYSTORE="$ks")
+  env "${env[@]}" target/release/cowork experiment pouring --trials 1 --seed "$seed" --rate 1 \
+    --time-limit 120 --json "$out/pouring-$secured.json" > "$out/pouring-$secured.txt" 2>&1 &
+  trial=$!
+  "$VENV/bin/python" tests/crosscheck/stranger.py 0 flood 400 "$trial" > "$out/flood-$secured.txt" 2>&1 &
+  flood=$!
+  wait "$trial" || true
+  kill "$flood" 2>/dev/null || true
+  wait "$flood" 2>/dev/null || true
+  echo "== security: $secured"
+  grep -E "^pouring seed|tool:|person \(" "$out/pouring-$secured.txt" || tail -n 5 "$out/pouring-$secured.txt"
+  grep -E "tool speed above|success" "$out/pouring-$secured.txt" | tail -n 3
+  cat "$out/flood-$secured.txt"
+done
+echo "outputs in $out"
