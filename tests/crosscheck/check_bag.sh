@@ -53,7 +53,10 @@ rec=$!
 rec_dir=$!
 sleep 1
 # Every topic matched before the first message: volatile topics lose what is sent earlier.
-"$target/release/cowork" bag play "$work/theirs.mcap" --rate 1 --delay 1 --wait-readers 6 --quiet
+# `--wait-readers` returns once one reader per topic is known, and there are two recorders: the
+# 3 s delay gives both time to subscribe and match (the CI rehearsal of 2026-12-06, under load
+# right after the release build, lost every topic's first message with 1 s).
+"$target/release/cowork" bag play "$work/theirs.mcap" --rate 1 --delay 3 --wait-readers 6 --quiet
 wait $rec || { echo "FAIL: cowork bag record"; cat "$work/record.log"; exit 1; }
 sed 's/^/  /' "$work/record.log"
 "$VENV/bin/python" tests/crosscheck/check_bag_replay.py "$work/theirs.jsonl" "$work/replayed.mcap"
