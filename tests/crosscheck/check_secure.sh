@@ -9,12 +9,12 @@
 # credentials and one with another CA's keystore get nothing through).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-if ! out=$(cargo test --release --locked -p cowork_ros --features security --test security 2>&1); then
-  echo "$out" | tail -n 40
+if ! out=$(RUST_BACKTRACE=0 cargo test --release --locked -p cowork_ros --features security --test security -- --nocapture 2>&1); then
+  echo "$out" | grep -v -E "^\s+(Compiling|Finished|Running)" | tail -n 60
   echo "FAIL: cowork_ros security tests (--features security)"
   exit 1
 fi
-echo "$out" | grep -E "^test |test result"
+echo "$out" | grep -E "^test |test result|^secured talker"
 # Built last and run from a copy of its own: a CI rehearsal once found target/release/examples/
 # secure_peer without the feature by the time the check ran.
 cargo build --release --locked -p cowork_ros --features security --example secure_peer 2>&1 | tail -n 1

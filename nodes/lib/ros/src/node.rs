@@ -99,6 +99,29 @@ pub fn discovery_on_all_networks() -> bool {
     }
 }
 
+/// Whether loopback only was asked for by name (`ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, or
+/// `ROS_LOCALHOST_ONLY=1`) rather than being cowork's default.
+fn discovery_on_loopback_by_request() -> bool {
+    match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE") {
+        Ok(r) => r.trim().eq_ignore_ascii_case("LOCALHOST"),
+        Err(_) => std::env::var("ROS_LOCALHOST_ONLY").is_ok_and(|v| v.trim() == "1"),
+    }
+}
+
+/// Whether a participant keeps to loopback. A secured one uses every interface unless loopback
+/// was asked for by name: between loopback-only secured RustDDS 0.15.1 participants the
+/// authentication handshake is lost when the peer's handshake reader is matched before any of
+/// its packets arrived (the reader keeps a route with no locator and its messages are never sent;
+/// about 1 start in 8 under load, every start with `RUST_LOG=rustdds=warn`). Every message of
+/// a secured participant is authenticated and encrypted, so the wider range admits nobody.
+fn loopback_only(secured: bool) -> bool {
+    if secured {
+        discovery_on_loopback_by_request()
+    } else {
+        !discovery_on_all_networks()
+    }
+}
+
 /// Checks a ROS namespace: `/`, or absolute without a trailing slash (`/left`, `/lab/left`)
 /// with tokens `[A-Za-z_][A-Za-z0-9_]*`; the error names it.
 pub(crate) fn validate_namespace(namespace: &str) -> Result<()> {
@@ -124,18 +147,19 @@ fn new_context(domain: u16, namespace: &str, name: &str) -> Result<Context> {
         None => None,
         Some(settings) => secure_root(&settings)?,
     };
-    let builder = || {
+    let builder = |secured: bool| {
         let mut builder = DomainParticipantBuilder::new(domain).same_host_loopback(true);
-        if !discovery_on_all_networks() {
+        if loopback_only(secured) {
             builder = builder.with_only_networks([std::net::Ipv4Addr::LOCALHOST]);
         }
         builder
     };
     let participant = match security {
-        None => builder().build().with_context(|| format!("cannot join DDS domain {domain}"))?,
-        Some((settings, dir)) => match secure_participant(builder(), &dir) {
+        None => builder(false).build().with_context(|| format!("cannot join DDS domain {domain}"))?,
+        Some((settings, dir)) => match secure_participant(builder(true), &dir) {
             Ok(p) => {
-                tracing::info!("DDS security on: enclave {} ({})", settings.enclave, dir.display());
+                let range = if loopback_only(true) { "loopback only" } else { "every interface" };
+                tracing::info!("DDS security on: enclave {} ({}), {range}", settings.enclave, dir.display());
                 p
             }
             Err(e) if settings.strategy == crate::security::Strategy::Permissive => {
@@ -144,7 +168,7 @@ fn new_context(domain: u16, namespace: &str, name: &str) -> Result<Context> {
                     settings.enclave,
                     dir.display()
                 );
-                builder().build().with_context(|| format!("cannot join DDS domain {domain}"))?
+                builder(false).build().with_context(|| format!("cannot join DDS domain {domain}"))?
             }
             Err(e) => {
                 return Err(e.context(format!(
