@@ -303,6 +303,52 @@ def alive(pid):
         return False
 
 
+def attack_writers(dp, dp_wrong, qos):
+    """The writers `attacks` uses, by attribute name; the wrong-type ones in `dp_wrong` (one
+    participant may not hold two types on one topic name)."""
+    t = lambda name, ty: Topic(dp, name, ty)  # noqa: E731
+    return {
+        "w_motion": DataWriter(dp, t("rt/motion/command", MotionCommand), qos=qos),
+        "w_joint_cmd": DataWriter(dp, t("rt/lwr/joint_velocity_command", Float64MultiArray), qos=qos),
+        "w_dist": DataWriter(dp, t("rt/fded/distances", LinkDistances), qos=qos),
+        "w_human": DataWriter(dp, t("rt/human/state", HumanState), qos=qos),
+        "w_speech": DataWriter(dp, t("rt/speech_command", String), qos=qos),
+        "w_clock": DataWriter(dp, t("rt/clock", Clock), qos=qos),
+        "w_wrong": {
+            name: DataWriter(dp_wrong, Topic(dp_wrong, name, String), qos=qos)
+            for name in ("rt/joint_states", "rt/fded/distances", "rt/human/state", "rt/motion/command",
+                         "rt/human/skeleton", "rt/lwr/joint_velocity_command", "rt/clock",
+                         "rt/camera/depth/image_raw")
+        },
+    }
+
+
+class Attacker:
+    """A blind stranger on one domain: the attack writers, and the graph's /clock for the stamps
+    while it can read it (it cannot from a secured graph: stamps are then 0)."""
+
+    def __init__(self, domain):
+        qos = Qos(
+            Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=5)),
+            Policy.History.KeepLast(100),
+            Policy.DataRepresentation(use_cdrv0_representation=True),
+            Policy.IgnoreLocal.Process,
+        )
+        self.dp = DomainParticipant(domain)
+        self.dp_wrong = DomainParticipant(domain)
+        self.__dict__.update(attack_writers(self.dp, self.dp_wrong, qos))
+        self.r_clock = DataReader(self.dp, Topic(self.dp, "rt/clock", Clock), qos=Qos(
+            Policy.Reliability.BestEffort, Policy.History.KeepLast(100),
+            Policy.DataRepresentation(use_cdrv0_representation=True), Policy.IgnoreLocal.Process))
+        self.now = None  # newest /clock (s) heard from the graph
+        self.clocks = 0
+
+    def poll(self):
+        for s in self.r_clock.take(N=1000):
+            self.now = secs(s.clock)
+            self.clocks += 1
+
+
 class Peer:
     def __init__(self, domain, graph):
         self.graph = graph
@@ -332,18 +378,7 @@ class Peer:
         self.r_human = DataReader(dp, t("rt/human/state", HumanState), qos=best_effort)
         self.r_dist = DataReader(dp, t("rt/fded/distances", LinkDistances), qos=best_effort)
         self.w_skeleton = DataWriter(dp, t("rt/human/skeleton", Skeleton), qos=qos)
-        self.w_motion = DataWriter(dp, t("rt/motion/command", MotionCommand), qos=qos)
-        self.w_joint_cmd = DataWriter(dp, t("rt/lwr/joint_velocity_command", Float64MultiArray), qos=qos)
-        self.w_dist = DataWriter(dp, t("rt/fded/distances", LinkDistances), qos=qos)
-        self.w_human = DataWriter(dp, t("rt/human/state", HumanState), qos=qos)
-        self.w_speech = DataWriter(dp, t("rt/speech_command", String), qos=qos)
-        self.w_clock = DataWriter(dp, t("rt/clock", Clock), qos=qos)
-        self.w_wrong = {
-            name: DataWriter(self.dp_wrong, Topic(self.dp_wrong, name, String), qos=qos)
-            for name in ("rt/joint_states", "rt/fded/distances", "rt/human/state", "rt/motion/command",
-                         "rt/human/skeleton", "rt/lwr/joint_velocity_command", "rt/clock",
-                         "rt/camera/depth/image_raw")
-        }
+        self.__dict__.update(attack_writers(dp, self.dp_wrong, qos))
         self.now = None  # newest /clock (s)
         self.tool = []  # (t, x, y, z)
         self.joints = []  # (t, [q])
@@ -777,6 +812,41 @@ def flood(domains, seconds):
     return 0
 
 
+def assault(domains, seconds, only):
+    """Mode `assault SECONDS [PID]`: every attack class of the stranger check in turn, ATTACK_S
+    each at its rate, blind (it cannot watch a secured graph), on the domains `flood` names,
+    until SECONDS or SIGTERM. The trial it attacks judges itself from the simulated world
+    (tests/reliability/secured_graph.sh with ATTACK=assault). Prints what it sent per class and
+    how many /clock messages of the graph it could read."""
+    attackers = [Attacker(d) for d in domains]
+    per = [attacks(a) for a in attackers]
+    classes = [(rows[0][0], rows[0][3], [r[2] for r in rows])
+               for rows in zip(*per) if not only or only in rows[0][0]]
+    stop = []
+    signal.signal(signal.SIGTERM, lambda *_: stop.append(1))
+    sent = {name: 0 for name, _, _ in classes}
+    end = time.monotonic() + seconds
+    while time.monotonic() < end and not stop:
+        for name, rate, acts in classes:
+            next_at = time.monotonic()
+            until = min(end, next_at + ATTACK_S)
+            while time.monotonic() < until and not stop:
+                while time.monotonic() >= next_at:
+                    for act in acts:
+                        sent[name] += act()
+                    next_at += 1.0 / rate
+                for a in attackers:
+                    a.poll()
+                time.sleep(0.001)
+            if stop or time.monotonic() >= end:
+                break
+    print(f"assault on domains {domains}: {sum(sent.values())} messages; the graph's /clock read "
+          f"{[a.clocks for a in attackers]} times")
+    for name, n in sent.items():
+        print(f"  {name:42} {n:>7}")
+    return 0
+
+
 SECURITY_VARS = ("ROS_SECURITY_ENABLE", "ROS_SECURITY_STRATEGY", "ROS_SECURITY_KEYSTORE", "ROS_SECURITY_ENCLAVE_OVERRIDE")
 
 
@@ -855,13 +925,13 @@ def main():
     only = os.environ.get("STRANGER_ONLY")
     root = os.path.abspath(os.path.join(os.path.dirname(__file__), "../.."))
     bin_dir = os.path.join(root, os.environ.get("BIN", "target/release"))
-    if mode == "flood":
+    if mode in ("flood", "assault"):
         seconds = float(args.pop(0)) if args else 60.0
         domains = [domain]
         if args:  # the pid of a `cowork experiment` run: its first trial's teaching and execution domains
             pid = int(args.pop(0))
             domains = [120 + ((pid * 7 + k) & 0xFFFFFFFF) % 100 for k in (0, 1)]
-        return flood(domains, seconds)
+        return flood(domains, seconds) if mode == "flood" else assault(domains, seconds, only)
     if mode == "secure":
         failed = secure(domain, root, bin_dir)
         for f in failed:

@@ -8,12 +8,16 @@
 #   cargo build --release --bins -p lwr_sim -p fded_distance -p human_observer -p ds_controller \
 #       -p robot_manager -p attentional_supervisor -p cowork --features cowork_ros/security
 #   VENV=.venv-crosscheck bash tests/reliability/secured_graph.sh [SEED]
+# ATTACK=assault: every attack class of the stranger check in turn instead (stranger.py
+# `assault`: malformed and direct joint commands, bad distances, human state, speech, DMPs,
+# model_file tricks, /clock jumps, wrong types), blind, for the whole trial.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
 : "${ROS_DOMAIN_ID:=163}"
 export ROS_DOMAIN_ID CYCLONEDDS_URI="file://$PWD/tests/crosscheck/cyclonedds-loopback.xml"
 seed=${1:-1}
+attack=${ATTACK:-flood}
 out=$(mktemp -d /tmp/cowork-secured-graph-XXXX)
 ks=$out/keystore
 target/release/cowork keystore create "$ks" >/dev/null
@@ -25,7 +29,7 @@ for secured in no yes; do
   env "${env[@]}" target/release/cowork experiment pouring --trials 1 --seed "$seed" --rate 1 \
     --time-limit 120 --json "$out/pouring-$secured.json" > "$out/pouring-$secured.txt" 2>&1 &
   trial=$!
-  "$VENV/bin/python" tests/crosscheck/stranger.py 0 flood 400 "$trial" > "$out/flood-$secured.txt" 2>&1 &
+  "$VENV/bin/python" tests/crosscheck/stranger.py 0 "$attack" 400 "$trial" > "$out/flood-$secured.txt" 2>&1 &
   flood=$!
   wait "$trial" || true
   kill "$flood" 2>/dev/null || true
