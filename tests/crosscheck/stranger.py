@@ -345,8 +345,9 @@ class Attacker:
 
     def poll(self):
         for s in self.r_clock.take(N=1000):
-            self.now = secs(s.clock)
-            self.clocks += 1
+            if isinstance(s, Clock):  # not a writer's dispose / unregister
+                self.now = secs(s.clock)
+                self.clocks += 1
 
 
 class Peer:

@@ -10,7 +10,8 @@
 #   VENV=.venv-crosscheck bash tests/reliability/secured_graph.sh [SEED]
 # ATTACK=assault: every attack class of the stranger check in turn instead (stranger.py
 # `assault`: malformed and direct joint commands, bad distances, human state, speech, DMPs,
-# model_file tricks, /clock jumps, wrong types), blind, for the whole trial.
+# model_file tricks, /clock jumps, wrong types), blind, for the whole trial. RUNS="yes" runs
+# only the secured trial (default "no yes").
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
@@ -23,7 +24,7 @@ ks=$out/keystore
 target/release/cowork keystore create "$ks" >/dev/null
 target/release/cowork keystore enclave "$ks" lwr_sim fded_distance human_observer ds_controller \
   robot_manager attentional_supervisor cowork_teach cowork_experiment >/dev/null
-for secured in no yes; do
+for secured in ${RUNS:-no yes}; do
   env=()
   [[ $secured == yes ]] && env=(ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce ROS_SECURITY_KEYSTORE="$ks")
   env "${env[@]}" target/release/cowork experiment pouring --trials 1 --seed "$seed" --rate 1 \
