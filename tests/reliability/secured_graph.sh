@@ -11,7 +11,8 @@
 # ATTACK=assault: every attack class of the stranger check in turn instead (stranger.py
 # `assault`: malformed and direct joint commands, bad distances, human state, speech, DMPs,
 # model_file tricks, /clock jumps, wrong types), blind, for the whole trial. RUNS="yes" runs
-# only the secured trial (default "no yes").
+# only the secured trial (default "no yes"). POLICY=1: the nodes' enclaves grant only the
+# topics config/security/policy.xml gives each node.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
@@ -22,8 +23,15 @@ attack=${ATTACK:-flood}
 out=$(mktemp -d /tmp/cowork-secured-graph-XXXX)
 ks=$out/keystore
 target/release/cowork keystore create "$ks" >/dev/null
-target/release/cowork keystore enclave "$ks" lwr_sim fded_distance human_observer ds_controller \
-  robot_manager attentional_supervisor cowork_teach cowork_experiment >/dev/null
+nodes=(lwr_sim fded_distance human_observer ds_controller robot_manager attentional_supervisor)
+if [[ -n "${POLICY:-}" ]]; then
+  # Each node only the topics config/security/policy.xml grants it; the runner (the test
+  # harness: it speaks, moves the person, records) every topic.
+  target/release/cowork keystore enclave "$ks" "${nodes[@]}" --policy config/security/policy.xml >/dev/null
+  target/release/cowork keystore enclave "$ks" cowork_teach cowork_experiment >/dev/null
+else
+  target/release/cowork keystore enclave "$ks" "${nodes[@]}" cowork_teach cowork_experiment >/dev/null
+fi
 for secured in ${RUNS:-no yes}; do
   env=()
   [[ $secured == yes ]] && env=(ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce ROS_SECURITY_KEYSTORE="$ks")

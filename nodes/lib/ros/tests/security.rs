@@ -13,7 +13,7 @@ use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use cowork_msgs::std_msgs::String as RosString;
-use cowork_ros::security::{ENCLAVE_FILES, create_enclave, create_keystore};
+use cowork_ros::security::{ENCLAVE_FILES, Policy, create_enclave, create_keystore};
 use cowork_ros::{NodeConfig, RosNode, qos};
 
 const ROLE: &str = "COWORK_SECURITY_TEST_ROLE";
@@ -58,14 +58,16 @@ fn secured<'a>(keystore: &'a str, strategy: &'a str, enclave: &'a str) -> Vec<(&
 }
 
 /// A node in a child process: `start` joins and leaves; `listen` counts messages on
-/// [`TOPIC`] per sender for 13 s; `talk:<name>` publishes `<name> <i>` at 50 Hz for 12 s (the
-/// secured handshakes take about 1 s on a quiet machine, several on a loaded one).
+/// [`TOPIC`] per sender for 13 s; `talk:<name>` (node `<name>`) publishes `<name> <i>` at 50 Hz
+/// for 12 s (the secured handshakes take about 1 s on a quiet machine, several on a loaded
+/// one), or says `REFUSED publisher` when its permissions do not let it publish there.
 #[test]
 #[ignore = "run by the other tests as a child process"]
 fn child() {
     let Ok(role) = std::env::var(ROLE) else { return };
     cowork_ros::init_logging();
-    let node = RosNode::new(&format!("sec_{}", std::process::id()), &NodeConfig::default());
+    let name = role.strip_prefix("talk:").map_or_else(|| format!("sec_{}", std::process::id()), str::to_owned);
+    let node = RosNode::new(&name, &NodeConfig::default());
     let mut node = match node {
         Ok(n) => n,
         Err(e) => {
@@ -84,11 +86,18 @@ fn child() {
                 *counts.entry(who).or_default() += 1;
             }
         }
-        for who in ["talker", "stranger", "rogue"] {
+        for who in ["talker", "stranger", "rogue", "insider"] {
             println!("RECEIVED {who} {}", counts.get(who).copied().unwrap_or(0));
         }
     } else if let Some(name) = role.strip_prefix("talk:") {
-        let publisher = node.publisher::<RosString>(TOPIC, &qos::reliable_depth(100)).expect("publisher");
+        let publisher = match node.publisher::<RosString>(TOPIC, &qos::reliable_depth(100)) {
+            Ok(p) => p,
+            Err(e) => {
+                println!("REFUSED publisher: {e:#}");
+                println!("SENT {name} 0");
+                return;
+            }
+        };
         let mut sent = 0;
         let end = Instant::now() + Duration::from_secs(12);
         while Instant::now() < end {
@@ -204,6 +213,14 @@ fn secured_nodes_talk_and_peers_without_our_credentials_get_nothing_through() {
     create_keystore(&ks).expect("keystore");
     create_enclave(&ks, "listener", None).expect("enclave");
     create_enclave(&ks, "talker", None).expect("enclave");
+    // An insider: our CA's certificate, but permissions (from a policy) that grant it another
+    // topic only.
+    let policy = Policy::parse(
+        r#"<policy version="0.2.0"><enclaves><enclave path="/insider"><profiles><profile ns="/" node="insider">
+             <topics publish="ALLOW"><topic>/elsewhere</topic></topics></profile></profiles></enclave></enclaves></policy>"#,
+    )
+    .expect("policy");
+    create_enclave(&ks, "insider", Some(&policy)).expect("enclave");
     // A rogue with a complete SROS2 keystore of its own CA.
     let rogue_ks = dir.path().join("rogue");
     create_keystore(&rogue_ks).expect("keystore");
@@ -214,7 +231,8 @@ fn secured_nodes_talk_and_peers_without_our_credentials_get_nothing_through() {
     let talker = child_cmd("talk:talker", domain, &secured(ks_s, "Enforce", "/talker")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("talker");
     let stranger = child_cmd("talk:stranger", domain, &[]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("stranger");
     let rogue = child_cmd("talk:rogue", domain, &secured(rogue_s, "Enforce", "/talker")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("rogue");
-    let outs: Vec<String> = [listener, talker, stranger, rogue]
+    let insider = child_cmd("talk:insider", domain, &secured(ks_s, "Enforce", "/insider")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("insider");
+    let outs: Vec<String> = [listener, talker, stranger, rogue, insider]
         .into_iter()
         .map(|c| text(&c.wait_with_output().expect("child")))
         .collect();
@@ -225,12 +243,17 @@ fn secured_nodes_talk_and_peers_without_our_credentials_get_nothing_through() {
             .unwrap_or_else(|| panic!("no {key:?} in:\n{all}"))
     };
     let (sent_s, sent_r) = (count("SENT stranger"), count("SENT rogue"));
-    let (got_t, got_s, got_r) = (count("RECEIVED talker"), count("RECEIVED stranger"), count("RECEIVED rogue"));
+    let (got_t, got_s, got_r, got_i) =
+        (count("RECEIVED talker"), count("RECEIVED stranger"), count("RECEIVED rogue"), count("RECEIVED insider"));
+    let insider_refused = all.lines().find(|l| l.contains("REFUSED publisher")).map(|l| l.chars().take(200).collect::<String>());
     eprintln!(
-        "secured talker: {} sent, {got_t} through; stranger without credentials: {sent_s} sent, {got_s} through; rogue CA: {sent_r} sent, {got_r} through",
-        count("SENT talker")
+        "secured talker: {} sent, {got_t} through; stranger without credentials: {sent_s} sent, {got_s} through; rogue CA: {sent_r} sent, {got_r} through; \
+         insider without the permission: {} sent, {got_i} through ({})",
+        count("SENT talker"),
+        count("SENT insider"),
+        insider_refused.as_deref().unwrap_or("its publisher was created")
     );
     assert!(got_t >= 50, "the secured talker must get through: {got_t}\n{all}");
     assert!(sent_s > 100 && sent_r > 100, "{all}");
-    assert_eq!((got_s, got_r), (0, 0), "{all}");
+    assert_eq!((got_s, got_r, got_i), (0, 0, 0), "{all}");
 }
