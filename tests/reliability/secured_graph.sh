@@ -38,7 +38,7 @@ for secured in ${RUNS:-no yes}; do
   env "${env[@]}" target/release/cowork experiment pouring --trials 1 --seed "$seed" --rate 1 \
     --time-limit 120 --json "$out/pouring-$secured.json" > "$out/pouring-$secured.txt" 2>&1 &
   trial=$!
-  "$VENV/bin/python" tests/crosscheck/stranger.py 0 "$attack" 400 "$trial" > "$out/flood-$secured.txt" 2>&1 &
+  "$VENV/bin/python" tests/crosscheck/stranger.py 0 "$attack" 400 "$trial" > "$out/stranger-$secured.txt" 2>&1 &
   flood=$!
   wait "$trial" || true
   kill "$flood" 2>/dev/null || true
@@ -46,6 +46,6 @@ for secured in ${RUNS:-no yes}; do
   echo "== security: $secured"
   grep -E "^pouring seed|tool:|person \(" "$out/pouring-$secured.txt" || tail -n 5 "$out/pouring-$secured.txt"
   grep -E "tool speed above|success" "$out/pouring-$secured.txt" | tail -n 3
-  cat "$out/flood-$secured.txt"
+  cat "$out/stranger-$secured.txt"
 done
 echo "outputs in $out"

@@ -90,22 +90,29 @@ pub fn domain_id_from_env() -> Result<u16> {
     }
 }
 
-/// Whether DDS may use every network interface (`ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`, or
-/// `ROS_LOCALHOST_ONLY=0`). By default cowork keeps all DDS traffic on loopback.
-pub fn discovery_on_all_networks() -> bool {
+/// The discovery range asked for in the environment: `Some(true)` every interface
+/// (`ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET` or `SYSTEM_DEFAULT`, or `ROS_LOCALHOST_ONLY=0`),
+/// `Some(false)` loopback by name (`ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, or
+/// `ROS_LOCALHOST_ONLY=1`), `None` when neither says.
+fn requested_all_networks() -> Option<bool> {
     match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE") {
-        Ok(r) => matches!(r.trim().to_ascii_uppercase().as_str(), "SUBNET" | "SYSTEM_DEFAULT"),
-        Err(_) => std::env::var("ROS_LOCALHOST_ONLY").is_ok_and(|v| v.trim() == "0"),
+        Ok(r) => match r.trim().to_ascii_uppercase().as_str() {
+            "SUBNET" | "SYSTEM_DEFAULT" => Some(true),
+            "LOCALHOST" => Some(false),
+            _ => None,
+        },
+        Err(_) => match std::env::var("ROS_LOCALHOST_ONLY").as_deref().map(str::trim) {
+            Ok("0") => Some(true),
+            Ok("1") => Some(false),
+            _ => None,
+        },
     }
 }
 
-/// Whether loopback only was asked for by name (`ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, or
-/// `ROS_LOCALHOST_ONLY=1`) rather than being cowork's default.
-fn discovery_on_loopback_by_request() -> bool {
-    match std::env::var("ROS_AUTOMATIC_DISCOVERY_RANGE") {
-        Ok(r) => r.trim().eq_ignore_ascii_case("LOCALHOST"),
-        Err(_) => std::env::var("ROS_LOCALHOST_ONLY").is_ok_and(|v| v.trim() == "1"),
-    }
+/// Whether DDS may use every network interface (`ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET`, or
+/// `ROS_LOCALHOST_ONLY=0`). By default cowork keeps all DDS traffic on loopback.
+pub fn discovery_on_all_networks() -> bool {
+    requested_all_networks() == Some(true)
 }
 
 /// Whether a participant keeps to loopback. A secured one uses every interface unless loopback
@@ -115,10 +122,9 @@ fn discovery_on_loopback_by_request() -> bool {
 /// about 1 start in 8 under load, every start with `RUST_LOG=rustdds=warn`). Every message of
 /// a secured participant is authenticated and encrypted, so the wider range admits nobody.
 fn loopback_only(secured: bool) -> bool {
-    if secured {
-        discovery_on_loopback_by_request()
-    } else {
-        !discovery_on_all_networks()
+    match requested_all_networks() {
+        Some(all) => !all,
+        None => !secured,
     }
 }
 
