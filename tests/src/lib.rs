@@ -92,6 +92,11 @@ impl Processes {
         self.graph.check_alive().map_err(|e| e.to_string())
     }
 
+    /// The processes themselves (to kill one and start it again, stop and continue one).
+    pub fn graph(&mut self) -> &mut cowork_graph::Graph {
+        &mut self.graph
+    }
+
     /// Stops every process: SIGINT (nodes save and stop cleanly), SIGKILL after 5 s.
     pub fn stop(&mut self) {
         self.graph.stop();

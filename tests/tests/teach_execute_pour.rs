@@ -16,6 +16,9 @@
 //!    is on (the bundled parameters): it keeps links off the coffee jar beside the cup at its
 //!    scene distances (the jar is a known scene object) instead of holding the forearm 10–30 cm
 //!    away as from a person, which stalled `noa5(cup)` / `foa4(cup)` before.
+//!    Chaos on the way: once the bottle is held, robot_manager is killed (SIGKILL) and started
+//!    again 3 s later; the new one starts with no action, and the supervisor sends the running
+//!    one again when the manager's robot stream comes back, so the task still completes.
 //!
 //! Overrides of the bundled parameters (all for this machine's speed, none for the result):
 //! teaching runs the simulator at 4× real time with `--follow-wrench-stamps` (each of the
@@ -46,6 +49,8 @@ const EXEC_RATE: &str = "0.5";
 const BOTTLE_AT: [f64; 2] = [0.50, 0.28];
 /// Simulated time the execution may take, s (Table 5.4 executes the pour in 46.5 s).
 const EXEC_LIMIT_S: f64 = 90.0;
+/// How long robot_manager stays killed in the execution (wall; 1.5 s simulated at EXEC_RATE).
+const MANAGER_DOWN: Duration = Duration::from_secs(3);
 
 fn p(path: &Path) -> &str {
     path.to_str().expect("UTF-8 temp path")
@@ -261,10 +266,24 @@ fn pour_taught_from_the_bag_runs_with_the_bottle_where_it_never_was() {
     let mut t_start = None;
     let exec_wall = Instant::now();
     let accomplished = |g: &Processes| g.log("attentional_supervisor").contains("task accomplished");
+    // Chaos: robot_manager killed (SIGKILL) once the bottle is held, started again after
+    // MANAGER_DOWN; the new one knows nothing of the running action, and the supervisor sends
+    // it again when the manager's robot stream comes back.
+    let mut manager_down: Option<(Instant, cowork_graph::Killed)> = None;
+    let mut manager_restarted = false;
     loop {
         while let Some(w) = world.take() {
             t_start.get_or_insert(w.header.stamp.to_secs_f64());
             judge.on_world(w);
+        }
+        if judge.grasped && !manager_restarted && manager_down.is_none() {
+            manager_down = Some((Instant::now(), g.graph().kill("robot_manager").expect("robot_manager running")));
+        }
+        if manager_down.as_ref().is_some_and(|(at, _)| at.elapsed() > MANAGER_DOWN)
+            && let Some((_, killed)) = manager_down.take()
+        {
+            g.graph().restart(killed).expect("robot_manager started again");
+            manager_restarted = true;
         }
         while let Some(r) = robot.take() {
             let t = r.header.stamp.to_secs_f64();
@@ -315,6 +334,12 @@ fn pour_taught_from_the_bag_runs_with_the_bottle_where_it_never_was() {
     assert!(judge.max_tilt_over_cup > 90f64.to_radians(), "not tilted over the cup: {judge:?}\n{}", logs());
     assert!(judge.put_back(), "not released upright on the table: {:?}\n{}", judge.last, logs());
     assert!(accomplished(&g), "the supervisor did not report the task accomplished\n{}", logs());
+    assert!(manager_restarted, "robot_manager was killed and started again during the execution");
+    assert!(
+        g.log("attentional_supervisor").contains("(robot_manager stopped or restarted?): sent again"),
+        "the supervisor sent the running action again to the restarted robot_manager\n{}",
+        logs()
+    );
     assert!(world_take_s.is_some() && world_pour_s.is_some(), "{judge:?}");
 }
 

@@ -56,7 +56,10 @@
 //! the id and label of the aborted command) — and again, with a warning, when no event of an
 //! action's id came on its arm's robot stream (`/robot_stream`, `/left/robot_stream`) within
 //! `action_resend_s` (a command lost before the robot manager's reader matched; at most 5
-//! times; tracked per arm). A command for an arm the LTM does not declare is never sent (the
+//! times; tracked per arm), and once more when an arm's robot stream comes back after a
+//! silence longer than `action_resend_s` while its action ran (its robot_manager was killed and
+//! restarted, or stopped and continued, and may have started over without the action; one that
+//! still runs it ignores the repeat). A command for an arm the LTM does not declare is never sent (the
 //! library only decides for declared arms; the node checks again, [`CommandTracker`]).
 //! `/supervisor/working_memory` (cowork_msgs/WorkingMemory) at `snapshot_rate_hz`. Every
 //! other decision (learned action, mode, accomplished behaviour, waiting for a demonstration,
@@ -105,4 +108,4 @@ pub use node::{
     WARNING_REPEAT_S, action_kind, kind_code, objects_event, speech_event, warning_kind, working_memory,
 };
 pub use params::{AreaParams, CentralBox, MAX_TASK_DEPTH, Params, Side};
-pub use run::{RunSummary, run, run_loop};
+pub use run::{RunSummary, run, run_loop, run_with};

@@ -34,6 +34,10 @@ fn main() -> std::process::ExitCode {
     cowork_ros::node_main(run)
 }
 
+/// The node state (working memory, running action, what was learned), kept when `node_main`
+/// runs the node again in this process (its DDS threads were lost to a stop and continue).
+static KEPT: std::sync::Mutex<Option<SupervisorNode>> = std::sync::Mutex::new(None);
+
 fn run(args: Args) -> Result<()> {
     let (mut params, place): (Params, _) = args.node.load(&args.params, "attentional_supervisor")?;
     // `--use-sim-time` paces the decisions on /clock too, not only the node's clock.
@@ -46,6 +50,14 @@ fn run(args: Args) -> Result<()> {
             Err(e) => tracing::warn!("{e}"),
         }
     }
+    let kept = KEPT.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+    if let Some(mut node_state) = kept {
+        tracing::warn!("going on with the working memory kept from before the restart");
+        let (node, options) = args.node.start("attentional_supervisor", params.use_sim_time)?;
+        let result = attentional_supervisor::run_with(node, &mut node_state, args.save_ltm.as_deref(), &options);
+        keep_for_restart(node_state);
+        return result;
+    }
     let ltm = Ltm::load(&args.ltm).with_context(|| format!("cannot load the LTM {}", args.ltm.display()))?;
     params
         .areas
@@ -54,7 +66,14 @@ fn run(args: Args) -> Result<()> {
     let supervisor = Supervisor::new(ltm, &args.task, params.attention.clone())
         .with_context(|| format!("cannot allocate task {} from {}", args.task, args.ltm.display()))?;
     let (node, options) = args.node.start("attentional_supervisor", params.use_sim_time)?;
-    let node_state = SupervisorNode::new(supervisor, &params);
-    attentional_supervisor::run(node, node_state, args.save_ltm.as_deref(), &options)?;
-    Ok(())
+    let mut node_state = SupervisorNode::new(supervisor, &params);
+    let result = attentional_supervisor::run_with(node, &mut node_state, args.save_ltm.as_deref(), &options);
+    keep_for_restart(node_state);
+    result
+}
+
+fn keep_for_restart(node_state: SupervisorNode) {
+    if cowork_ros::shutdown::restarting() {
+        *KEPT.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(node_state);
+    }
 }

@@ -347,6 +347,14 @@ struct ArmIo {
     /// The arm's last action command until an event of its id arrives on the arm's
     /// robot stream: (command, when it was last sent s, how often it was sent again).
     unacked: Option<(ActionCommand, f64, u32)>,
+    /// The arm's last action command until a done or failed event of it: what a robot
+    /// manager that restarted in the middle of it is sent again.
+    running: Option<ActionCommand>,
+    /// The supervisor's time (s) at the arm's last robot stream message.
+    stream_s: Option<f64>,
+    /// The robot stream came back after this silence (s) while `running`: the command goes
+    /// out again at the next tick.
+    silence_s: Option<f64>,
 }
 
 /// The supervisor with its message conversions; no I/O.
@@ -383,6 +391,9 @@ impl SupervisorNode {
                 name: a.clone(),
                 decoder: if dual { RobotStreamDecoder::for_arm(a) } else { RobotStreamDecoder::default() },
                 unacked: None,
+                running: None,
+                stream_s: None,
+                silence_s: None,
             })
             .collect();
         let areas = dual.then(|| Areas::new(state.arm_names(), &params.areas, &params.attention.central_area));
@@ -524,6 +535,21 @@ impl SupervisorNode {
         if io.unacked.as_ref().is_some_and(|(c, _, _)| msg.events.iter().any(|e| e.command_id == c.id || e.label == c.label)) {
             io.unacked = None;
         }
+        // A stream silent for longer than `action_resend_s` while an action ran: its robot
+        // manager stopped (killed, or stopped and continued) and may have started over without
+        // it. Sent again at the next tick; a manager still running it ignores it (same label).
+        let now = self.last_tick_s;
+        if io.running.is_some()
+            && let Some(last) = io.stream_s
+            && now - last > self.params.action_resend_s
+        {
+            io.silence_s = Some(now - last);
+        }
+        io.stream_s = Some(now);
+        if io.running.as_ref().is_some_and(|c| msg.events.iter().any(|e| (e.done || e.failed) && (e.command_id == c.id || e.label == c.label))) {
+            io.running = None;
+            io.silence_s = None;
+        }
         self.events.clear();
         io.decoder.decode_warnings(msg, &mut self.events, &mut self.pending_problems);
         let t = self.now_hint();
@@ -573,12 +599,18 @@ impl SupervisorNode {
             return;
         }
         self.resend_unacked(now, out);
+        self.resend_after_silence(now, out);
         self.sup.tick(now.to_secs_f64(), &mut self.decisions);
         for d in &self.decisions {
             match self.tracker.command(d, now) {
                 Some(c) => {
                     if let Some(io) = self.arms.iter_mut().find(|a| a.name == c.arm) {
                         io.unacked = (!c.stop).then(|| (c.clone(), now.to_secs_f64(), 0));
+                        io.running = (!c.stop).then(|| c.clone());
+                        io.silence_s = None;
+                        // A silence counts from the command on (not from a stream before it,
+                        // e.g. one that came before the first tick).
+                        io.stream_s = Some(now.to_secs_f64());
                     }
                     out.push(Output::Action(c));
                 }
@@ -637,6 +669,27 @@ impl SupervisorNode {
                 out.push(Output::Action(cmd.clone()));
                 format!("no {topic} event for {what} within {} s: sent again ({}/{MAX_ACTION_RESENDS})", self.params.action_resend_s, *resends)
             };
+            self.warnings += 1;
+            out.push(Output::Warning(Warning::new("supervisor:action_resent", message)));
+        }
+    }
+
+    /// Sends an arm's running action again when its robot stream came back after a silence
+    /// (see [`robot_stream`](Self::robot_stream)), with a warning; it is then tracked as
+    /// unanswered, as a new command is.
+    fn resend_after_silence(&mut self, now: Time, out: &mut Vec<Output>) {
+        for io in &mut self.arms {
+            let Some(silence) = io.silence_s.take() else { continue };
+            let Some(cmd) = io.running.as_mut() else { continue };
+            cmd.header.stamp = now;
+            out.push(Output::Action(cmd.clone()));
+            io.unacked = Some((cmd.clone(), now.to_secs_f64(), 0));
+            let message = format!(
+                "{} silent for {silence:.1} s while action {} `{}` ran (robot_manager stopped or restarted?): sent again",
+                io.decoder.topic(),
+                cmd.id,
+                cowork_ros::text_prefix(&cmd.label, MAX_WARNING_CHARS)
+            );
             self.warnings += 1;
             out.push(Output::Warning(Warning::new("supervisor:action_resent", message)));
         }

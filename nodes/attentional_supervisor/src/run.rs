@@ -133,6 +133,16 @@ impl LtmSaver {
 /// with what it learned, saved to `save_ltm` (atomically, after every change) when given.
 /// `node` must have been created with `use_sim_time` = the node's `params().use_sim_time`.
 pub fn run(node: RosNode, mut sn: SupervisorNode, save_ltm: Option<&Path>, options: &RunOptions) -> Result<Supervisor> {
+    run_with(node, &mut sn, save_ltm, options)?;
+    Ok(sn.into_supervisor())
+}
+
+/// [`run`] on a node state the caller keeps: the node binary keeps it across an in-process
+/// restart (`cowork_ros::node_main` after a stop and continue), so the working memory and the
+/// running action go on; the running action is then not stopped on the way out, and it is sent
+/// again when the robot stream comes back ([`SupervisorNode`]'s silence rule).
+pub fn run_with(node: RosNode, sn: &mut SupervisorNode, save_ltm: Option<&Path>, options: &RunOptions) -> Result<()> {
+    let sn = &mut *sn;
     let mut source = DdsSource::new(node, options.start())?;
     let arms = sn.dual_arms();
     if arms.is_empty() {
@@ -196,7 +206,7 @@ pub fn run(node: RosNode, mut sn: SupervisorNode, save_ltm: Option<&Path>, optio
     }
     let mut warnings = Warnings::new(WARNING_REPEAT_S);
     let mut saver = LtmSaver { path: save_ltm.map(Path::to_owned), pending: None, retry_at_s: 0.0, told_unsaved: false };
-    let summary = run_loop(&mut source, &mut sn, &mut |out| {
+    let summary = run_loop(&mut source, sn, &mut |out| {
         let failed = match out {
             Output::Action(c) => actions.send(c),
             Output::WorkingMemory(m) => wm.send(m),
@@ -217,7 +227,13 @@ pub fn run(node: RosNode, mut sn: SupervisorNode, save_ltm: Option<&Path>, optio
     });
 
     let now = source.node().now();
-    for c in sn.shutdown_commands(now) {
+    let goodbyes = if cowork_ros::shutdown::restarting() {
+        tracing::warn!("restarting in this process: the working memory and the running action are kept");
+        Vec::new()
+    } else {
+        sn.shutdown_commands(now)
+    };
+    for c in goodbyes {
         if c.arm.is_empty() {
             tracing::info!("stopping {} on shutdown", c.label);
         } else {
@@ -241,7 +257,7 @@ pub fn run(node: RosNode, mut sn: SupervisorNode, save_ltm: Option<&Path>, optio
         summary.actions,
         summary.warnings
     );
-    Ok(sn.into_supervisor())
+    Ok(())
 }
 
 fn log_decision(d: &Decision) {

@@ -590,3 +590,69 @@ fn an_unanswered_action_command_is_sent_again() {
     assert_eq!(all.len(), 1, "{all:?}");
     assert_eq!(node.warnings(), 0);
 }
+
+/// A robot manager killed and restarted (or stopped and continued) in the middle of an action
+/// starts over without it: when its robot stream comes back after a silence longer than
+/// `action_resend_s`, the running action is sent again, once, with a warning. A stream that
+/// never paused, or a silence after the action was done, sends nothing.
+#[test]
+fn the_running_action_is_sent_again_when_the_robot_stream_comes_back() {
+    let params = Params::default();
+    let ltm = taught_pour(&params);
+    let mut node = SupervisorNode::new(Supervisor::new(ltm, "pourDrink", params.attention.clone()).expect("task"), &params);
+    node.on_object_stream(&objects(&[("water", 0.6), ("cup", 0.9)]));
+    let mut out = Vec::new();
+    let mut sent = Vec::new();
+    // The manager starts the first action and streams at 30 Hz for 2 s.
+    let mut first = None;
+    for k in 0..200 {
+        let now = k as f64 * 0.01;
+        out.clear();
+        node.tick(t(now), &mut out);
+        if let Some(c) = out.first() {
+            first.get_or_insert_with(|| c.clone());
+        }
+        sent.extend(out.iter().cloned());
+        if let Some(c) = &first
+            && k % 3 == 0
+        {
+            let started = if k < 5 { vec![ActionEvent { label: c.label.clone(), command_id: c.id, ..Default::default() }] } else { vec![] };
+            node.on_robot_stream(&RobotStream { events: started, ..Default::default() });
+        }
+    }
+    let first = first.expect("an action is commanded");
+    assert_eq!(sent.len(), 1, "{sent:?}");
+    assert_eq!(node.warnings(), 0);
+    // Killed: 2.5 s without a stream, then the restarted manager streams again, idle.
+    for k in 200..450 {
+        out.clear();
+        node.tick(t(k as f64 * 0.01), &mut out);
+        assert!(out.is_empty(), "nothing while the manager is gone: {out:?}");
+    }
+    node.on_robot_stream(&RobotStream::default());
+    out.clear();
+    node.tick(t(4.5), &mut out);
+    assert_eq!(out.len(), 1, "{out:?}");
+    assert_eq!((out[0].id, out[0].label.as_str(), out[0].stop), (first.id, first.label.as_str(), false));
+    assert_eq!(node.warnings(), 1);
+    // It streams on and starts the action: nothing more.
+    let started = ActionEvent { label: first.label.clone(), command_id: first.id, ..Default::default() };
+    node.on_robot_stream(&RobotStream { events: vec![started], ..Default::default() });
+    for k in 451..700 {
+        out.clear();
+        node.tick(t(k as f64 * 0.01), &mut out);
+        assert!(out.is_empty(), "{out:?}");
+        if k % 3 == 0 {
+            node.on_robot_stream(&RobotStream::default());
+        }
+    }
+    // The action is done; the next one starts. A silence after a done action sends nothing
+    // again but what the supervisor decides next.
+    let done = ActionEvent { label: first.label.clone(), command_id: first.id, done: true, ..Default::default() };
+    node.on_robot_stream(&RobotStream { events: vec![done], ..Default::default() });
+    out.clear();
+    node.tick(t(7.0), &mut out);
+    assert_eq!(out.len(), 1, "the next action: {out:?}");
+    assert_ne!(out[0].label, first.label);
+    assert_eq!(node.warnings(), 1);
+}

@@ -34,4 +34,4 @@ mod run;
 
 pub use node::{Due, Input, LwrSim, MAX_PENDING_WRENCHES, MAX_STEP_WARNINGS, Output};
 pub use params::{LwrSimConfig, PublishRates, WrenchConfig, WrenchMode};
-pub use run::{HOLD_RECHECK_S, Pacing, RunSummary, WARNING_REPEAT_S, run, run_loop};
+pub use run::{HOLD_RECHECK_S, Pacing, RunSummary, WARNING_REPEAT_S, run, run_loop, run_with};

@@ -47,6 +47,11 @@ fn main() -> std::process::ExitCode {
     cowork_ros::node_main(run)
 }
 
+/// The simulation, kept when `node_main` runs the node again in this process (its DDS threads
+/// were lost to a stop and continue): the robot, the objects and the clock go on from where
+/// they were, as a real robot's would.
+static KEPT: std::sync::Mutex<Option<LwrSim>> = std::sync::Mutex::new(None);
+
 fn run(mut args: Args) -> Result<()> {
     // `config/...` defaults resolve to the bundled config directory from any working directory.
     args.urdf = cowork_ros::config::resolve(&args.urdf);
@@ -63,12 +68,26 @@ fn run(mut args: Args) -> Result<()> {
         .with_context(|| format!("scene {} does not fit the robot", args.scene.display()))?;
     let pacing = Pacing::from_args(args.rate, args.max)?;
     let node = cowork_ros::start_node("lwr_sim", false, args.duration)?;
-    let mut lwr = LwrSim::new(sim, config);
-    if args.follow_wrench_stamps {
-        lwr.follow_wrench_stamps();
+    let kept = KEPT.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take();
+    let mut lwr = match kept {
+        Some(lwr) => {
+            tracing::warn!("going on with the simulation kept from before the restart, at t_sim = {:.3} s", lwr.time_s());
+            lwr
+        }
+        None => {
+            let mut lwr = LwrSim::new(sim, config);
+            if args.follow_wrench_stamps {
+                lwr.follow_wrench_stamps();
+            }
+            if let Some(mode) = args.wrench_mode {
+                lwr.set_wrench_mode(mode);
+            }
+            lwr
+        }
+    };
+    let result = lwr_sim::run_with(node, &mut lwr, pacing, args.duration);
+    if cowork_ros::shutdown::restarting() {
+        *KEPT.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(lwr);
     }
-    if let Some(mode) = args.wrench_mode {
-        lwr.set_wrench_mode(mode);
-    }
-    lwr_sim::run(node, lwr, pacing, args.duration)
+    result
 }

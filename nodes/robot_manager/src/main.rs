@@ -27,6 +27,10 @@ fn main() -> std::process::ExitCode {
     cowork_ros::node_main(run)
 }
 
+/// The node state (the running action, the world, the database), kept when `node_main` runs
+/// the node again in this process (its DDS threads were lost to a stop and continue).
+static KEPT: std::sync::Mutex<Option<RobotManagerNode>> = std::sync::Mutex::new(None);
+
 fn run(args: Args) -> Result<()> {
     let (mut params, place): (Params, _) = args.node.load(&args.params, "robot_manager")?;
     if let Some(d) = &args.database_dir {
@@ -35,6 +39,11 @@ fn run(args: Args) -> Result<()> {
     params.validate(&place).with_context(|| format!("invalid parameters in {place}"))?;
     let tick = params.tick_rate_hz;
     let use_sim_time = params.use_sim_time;
+    if let Some(rm) = KEPT.lock().unwrap_or_else(std::sync::PoisonError::into_inner).take() {
+        tracing::warn!("going on with the action and the world kept from before the restart");
+        let (node, options) = args.node.start("robot_manager", use_sim_time)?;
+        return keep_for_restart(robot_manager::run(node, rm, tick, &options)?);
+    }
     let preview = robot_manager::preview::load(&params, &place)?;
     let (mut rm, problem) = RobotManagerNode::new(params, robot_manager::run::unix_s());
     if let Some(p) = problem {
@@ -46,6 +55,12 @@ fn run(args: Args) -> Result<()> {
     let (node, options) = args.node.start("robot_manager", use_sim_time)?;
     // In an arm's namespace (`--ros-args -r __ns:=/left`) it serves that arm's commands only.
     rm.set_arm(node.namespace().rsplit('/').next().unwrap_or_default());
-    robot_manager::run(node, rm, tick, &options)?;
+    keep_for_restart(robot_manager::run(node, rm, tick, &options)?)
+}
+
+fn keep_for_restart(rm: RobotManagerNode) -> Result<()> {
+    if cowork_ros::shutdown::restarting() {
+        *KEPT.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Some(rm);
+    }
     Ok(())
 }

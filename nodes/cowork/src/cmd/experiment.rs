@@ -90,6 +90,18 @@ pub struct ExperimentArgs {
     /// up to the table, reaches once into the robot's workspace and leaves).
     #[arg(long)]
     pub no_person: bool,
+    /// Kitchen experiments: chaos — one node of the executing graph `NODE:kill` (SIGKILL, then
+    /// started again) or `NODE:stop` (SIGSTOP, then SIGCONT), e.g. `robot_manager:kill`; the
+    /// trial reports when the robot was held, how far it moved, when it resumed, and whether
+    /// the task still completed.
+    #[arg(long, value_parser = super::kitchen::fault::parse_fault)]
+    pub fault: Option<super::kitchen::fault::FaultSpec>,
+    /// With --fault: when it strikes, simulated s after the robot's first action.
+    #[arg(long, default_value_t = 8.0)]
+    pub fault_at: f64,
+    /// With --fault: wall-clock s the node stays down.
+    #[arg(long, default_value_t = 2.0)]
+    pub fault_down: f64,
     /// refine-goal, refine-elbow: most refined executions (rounds of one execution with the
     /// person and one alone) before the trial fails.
     #[arg(long, default_value_t = 5)]
@@ -126,6 +138,9 @@ fn private_domain(k: u32) -> u16 {
 
 /// Runs the experiment and writes what was asked.
 pub fn run(args: ExperimentArgs) -> Result<()> {
+    if args.fault.is_some() && !super::kitchen::NAMES.contains(&args.name.as_str()) {
+        bail!("--fault is for the kitchen experiments ({})", super::kitchen::NAMES.join(", "));
+    }
     if args.name == super::pizza::NAME {
         return super::pizza::run(&args);
     }
@@ -135,6 +150,7 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     if super::kitchen::NAMES.contains(&args.name.as_str()) {
         return super::kitchen::run(&args);
     }
+
     if super::refine::NAMES.contains(&args.name.as_str()) {
         return super::refine::run(&args);
     }

@@ -30,6 +30,8 @@ use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 pub use feed::{FeedSummary, TeachingFeed};
+/// The signals [`Graph::signal`] sends.
+pub use nix::sys::signal::Signal;
 
 /// What can go wrong with the graph's processes or the teaching feed.
 #[derive(Debug, thiserror::Error)]
@@ -112,6 +114,24 @@ struct Proc {
     name: String,
     child: Child,
     log: PathBuf,
+    /// The binary and its arguments, to start it again ([`Graph::kill`], [`Graph::restart`]).
+    program: PathBuf,
+    args: Vec<std::ffi::OsString>,
+}
+
+/// A node killed by [`Graph::kill`], to be started again by [`Graph::restart`].
+#[derive(Debug)]
+pub struct Killed {
+    name: String,
+    program: PathBuf,
+    args: Vec<std::ffi::OsString>,
+}
+
+impl Killed {
+    /// The node's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
 }
 
 /// The node processes of one graph on one DDS domain. Dropping it stops them all.
@@ -155,11 +175,51 @@ impl Graph {
     /// Starts `program` with `args` as node `name`, logging to `<logs>/<name>.log` (a name
     /// started twice overwrites its log).
     pub fn spawn<S: AsRef<OsStr>>(&mut self, name: &str, program: &Path, args: &[S]) -> Result<()> {
+        let args: Vec<std::ffi::OsString> = args.iter().map(|a| a.as_ref().to_owned()).collect();
+        self.start(name, program, args, false)
+    }
+
+    /// Kills node `name` at once (SIGKILL, as a crash or `kill -9` would: nothing saved, no
+    /// goodbye to its DDS peers) and waits for it; `None` when no process has that name.
+    /// [`restart`](Self::restart) starts it again with the same binary and arguments.
+    pub fn kill(&mut self, name: &str) -> Option<Killed> {
+        let i = self.procs.iter().position(|p| p.name == name)?;
+        let mut p = self.procs.remove(i);
+        let _ = p.child.kill();
+        let _ = p.child.wait();
+        Some(Killed { name: p.name, program: p.program, args: p.args })
+    }
+
+    /// Starts a node [`kill`](Self::kill)ed before, as a launcher's respawn would; its log goes
+    /// on in the same file after a line saying so.
+    pub fn restart(&mut self, killed: Killed) -> Result<()> {
+        self.start(&killed.name, &killed.program, killed.args, true)
+    }
+
+    /// Sends `signal` (e.g. SIGSTOP, SIGCONT) to node `name`; `false` when no process has that
+    /// name or it has exited.
+    pub fn signal(&mut self, name: &str, sig: nix::sys::signal::Signal) -> bool {
+        let Some(p) = self.procs.iter_mut().find(|p| p.name == name) else { return false };
+        if !running(p) {
+            return false;
+        }
+        signal(p, sig);
+        true
+    }
+
+    fn start(&mut self, name: &str, program: &Path, args: Vec<std::ffi::OsString>, again: bool) -> Result<()> {
         let log = self.log_path(name);
-        let out = File::create(&log).map_err(|source| Error::Log { path: log.clone(), source })?;
+        let out = if again {
+            let mut f = std::fs::OpenOptions::new().append(true).create(true).open(&log).map_err(|source| Error::Log { path: log.clone(), source })?;
+            use std::io::Write as _;
+            writeln!(f, "==== cowork_graph: {name} started again after it was killed ====").map_err(|source| Error::Log { path: log.clone(), source })?;
+            f
+        } else {
+            File::create(&log).map_err(|source| Error::Log { path: log.clone(), source })?
+        };
         let err = out.try_clone().map_err(|source| Error::Log { path: log.clone(), source })?;
         let mut cmd = Command::new(program);
-        cmd.args(args)
+        cmd.args(&args)
             .env("ROS_DOMAIN_ID", self.domain.to_string())
             .stdin(Stdio::null())
             .stdout(out)
@@ -170,7 +230,7 @@ impl Graph {
         let child = cmd
             .spawn()
             .map_err(|source| Error::Spawn { name: name.to_owned(), program: program.to_owned(), source })?;
-        self.procs.push(Proc { name: name.to_owned(), child, log });
+        self.procs.push(Proc { name: name.to_owned(), child, log, program: program.to_owned(), args });
         Ok(())
     }
 
@@ -344,6 +404,28 @@ mod tests {
         let took = t.elapsed().as_secs_f64();
         assert!((STOP_GRACE_S - 0.5..STOP_GRACE_S + 5.0).contains(&took), "killed after the grace period: {took} s");
         assert!(g.check_alive().is_ok());
+    }
+
+    /// A killed node is gone at once (not an exit `check_alive` reports), starts again with its
+    /// arguments and its log goes on; a stopped one is continued.
+    #[test]
+    fn a_node_is_killed_and_restarted_with_its_log_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut g = Graph::new(7, dir.path()).unwrap();
+        g.spawn("counter", &sh(), &["-c", "echo \"run $1\"; exec sleep 60", "sh", "A"]).unwrap();
+        std::thread::sleep(Duration::from_millis(200));
+        assert!(g.signal("counter", Signal::SIGSTOP) && g.signal("counter", Signal::SIGCONT));
+        let killed = g.kill("counter").expect("running");
+        assert_eq!(killed.name(), "counter");
+        assert!(g.pids().is_empty() && g.check_alive().is_ok());
+        assert!(!g.signal("counter", Signal::SIGCONT) && g.kill("counter").is_none());
+        g.restart(killed).unwrap();
+        std::thread::sleep(Duration::from_millis(200));
+        assert_eq!(g.pids().len(), 1);
+        let log = g.log("counter");
+        assert_eq!(log.matches("run A").count(), 2, "{log}");
+        assert!(log.contains("started again"), "{log}");
+        g.stop();
     }
 
     #[test]

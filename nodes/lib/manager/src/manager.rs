@@ -230,6 +230,8 @@ pub struct Manager {
     now_t: f64,
     /// The last motion command, until the controller reports on it (or a newer one).
     unacked: Option<Unacked>,
+    /// The last motion command sent: what a controller that started over is sent again.
+    last_order: Option<MotionOrder>,
     /// Some `/motion/status` arrived: a controller is there to send to again.
     controller_heard: bool,
     /// Previews motions to choose a round object's turn (`crate::turn`); `None`: never turned.
@@ -308,6 +310,7 @@ impl Manager {
             grasped_at: None,
             now_t: 0.0,
             unacked: None,
+            last_order: None,
             controller_heard: false,
             previewer: None,
             joints: None,
@@ -737,7 +740,15 @@ impl Manager {
             if cmd == GripperCommand::Close
                 && let Some(h) = &world.held
             {
-                return self.fail(&run, format!("the hand already holds {h}"), out);
+                if *h != run.object && self.cfg.objects.get(h).is_none_or(|task| *task != run.object) {
+                    return self.fail(&run, format!("the hand already holds {h}"), out);
+                }
+                // Already done (commanded again after a restart of this node or of the
+                // supervisor, or by a second `repeat`).
+                out.push(Output::Warn(format!("{}: the hand already holds {h}; done at once", run.label)));
+                Self::report(out, &run, false, false, String::new());
+                Self::report(out, &run, true, false, String::new());
+                return;
             }
             if cmd == GripperCommand::Open && world.held.is_none() && !world.gripper_closed {
                 out.push(Output::Warn(format!("{}: the hand holds nothing and is open; done at once", run.label)));
@@ -1257,6 +1268,7 @@ impl Manager {
         self.motion_id += 1;
         let order = MotionOrder { id: self.motion_id, label, plan, nominal_speed: self.cfg.nominal_speed_m_s };
         self.unacked = Some(Unacked { order: order.clone(), sent_t: self.now_t, resends: 0 });
+        self.last_order = Some(order.clone());
         out.push(Output::Motion(order));
         self.motion_id
     }
@@ -1292,7 +1304,21 @@ impl Manager {
     fn on_motion(&mut self, m: &MotionReport, out: &mut Vec<Output>) {
         self.controller_heard = true;
         if m.command_id == 0 {
-            return; // the controller's "waiting for a command"
+            // The controller's "waiting for a command". After it had reported on the running
+            // action's motion, it has started over (killed and started again, or stopped and
+            // continued) and lost it: sent again, then tracked as unacknowledged.
+            if self.unacked.is_none()
+                && let Some(order) = self.last_order.clone()
+                && self.current.as_ref().is_some_and(|c| c.motion_id == Some(order.id))
+            {
+                out.push(Output::Warn(format!(
+                    "/motion/status: the controller waits for a command while motion command {} ({}) runs (it started over?): sent again",
+                    order.id, order.label
+                )));
+                self.unacked = Some(Unacked { order: order.clone(), sent_t: self.now_t, resends: 0 });
+                out.push(Output::Motion(order));
+            }
+            return;
         }
         if m.command_id > self.motion_id {
             return out.push(Output::Warn(format!(

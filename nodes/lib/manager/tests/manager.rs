@@ -171,6 +171,38 @@ fn a_motion_command_the_controller_never_reported_on_is_sent_again() {
     assert!(orders(&d.take()).is_empty());
 }
 
+/// A controller killed and started again (or stopped and continued) reports "waiting for a
+/// command" while the running action's motion was under way: the manager sends that motion
+/// again, once, and the action goes on to its end; before the controller reported on it, or
+/// with no action running, a waiting controller gets nothing more.
+#[test]
+fn a_controller_that_started_over_gets_the_running_motion_again() {
+    let mut d = taught();
+    let waiting = || Input::Motion(MotionReport { command_id: 0, state: MotionState::Held, reason: String::new() });
+    d.input(waiting());
+    let out = run_action(&mut d, 7, "foa1(water)");
+    let order = orders(&out).pop().expect("a motion order");
+    // A "waiting" status still on its way before the controller took the order: not resent.
+    d.input(waiting());
+    assert!(orders(&d.take()).is_empty());
+    d.input(Input::Motion(MotionReport { command_id: order.id, state: MotionState::Running, reason: String::new() }));
+    d.wait(0.2);
+    assert!(orders(&d.take()).is_empty());
+    // The controller started over: its first statuses say it waits.
+    d.input(waiting());
+    let out = d.take();
+    assert_eq!(orders(&out), [order.clone()], "{out:#?}");
+    assert!(warnings(&out).iter().any(|w| w.contains("started over") && w.contains("foa1(water)")), "{out:#?}");
+    d.input(waiting());
+    assert!(orders(&d.take()).is_empty(), "once, until the controller reports on it");
+    d.input(Input::Motion(MotionReport { command_id: order.id, state: MotionState::Converged, reason: String::new() }));
+    let out = d.take();
+    assert!(out.iter().any(|o| matches!(o, Output::Action(a) if a.done && a.label == "foa1(water)")), "{out:#?}");
+    // Nothing running: a waiting controller gets nothing.
+    d.input(waiting());
+    assert!(orders(&d.take()).is_empty());
+}
+
 #[test]
 fn gripper_actions_are_done_when_the_world_reports_the_grasp() {
     let mut d = taught();
@@ -189,6 +221,11 @@ fn gripper_actions_are_done_when_the_world_reports_the_grasp() {
     // Closing again while holding: failed, naming what is held.
     let out = run_action(&mut d, 4, "gripper(close)");
     assert!(out.iter().any(|o| matches!(o, Output::Action(a) if a.failed && a.reason.contains("already holds water"))));
+    // The same grasp commanded again (a restarted manager or supervisor): done at once.
+    let out = run_action(&mut d, 5, "close3(water)");
+    assert!(out.iter().any(|o| matches!(o, Output::Action(a) if a.done && a.label == "close3(water)")), "{out:#?}");
+    assert!(out.iter().all(|o| !matches!(o, Output::Action(a) if a.failed)), "{out:#?}");
+    assert!(warnings(&out).iter().any(|w| w.contains("already holds water; done at once")), "{out:#?}");
     // Closing on nothing: fails at the gripper timeout with the reason.
     d.world.gripper(false);
     d.world.tool = at(0.3, -0.3, 0.5);

@@ -35,6 +35,13 @@ pub fn signalled() -> bool {
     FLAG.get().is_some_and(|f| f.load(Ordering::SeqCst))
 }
 
+/// Whether the node's loops are ending for [`crate::node_main`] to run it again in this
+/// process (its DDS threads were lost), not for a stop: what it holds in memory may be kept
+/// for the next run, and a stop's goodbyes (e.g. aborting the robot's action) are not due.
+pub fn restarting() -> bool {
+    RESTART.load(Ordering::SeqCst) && !signalled()
+}
+
 /// Ends the running node's loops (as [`requested`] says) so that `node_main` can run it again.
 pub(crate) fn request_restart() {
     RESTART.store(true, Ordering::SeqCst);

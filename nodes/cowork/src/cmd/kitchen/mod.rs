@@ -71,12 +71,14 @@ use super::teach::{Learned, TeachSetup, learned_between, teach};
 
 mod bottle_taker;
 mod closed_bottle;
+pub mod fault;
 mod judge;
 mod open_subtask;
 mod passer_by;
 
 use bottle_taker::BottleTaker;
 use closed_bottle::{SuspendOutcome, Suspender};
+use fault::{FaultOutcome, FaultRun};
 use judge::Judge;
 use open_subtask::OpenTeaching;
 use passer_by::{PasserBy, PersonOutcome};
@@ -281,6 +283,8 @@ pub struct KitchenTrial {
     pub suspension: Option<SuspendOutcome>,
     /// `tea-reuse`: the open subtask taught during the execution.
     pub open_teaching: Option<OpenTeaching>,
+    /// `--fault`: what the node's fault did to the robot.
+    pub fault: Option<FaultOutcome>,
     /// The execution's time series (for `--report`; not in the JSON).
     #[serde(skip)]
     pub series: Series,
@@ -393,6 +397,9 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
                     f.speed_m_s, f.t_s, f.allowed_m_s, o.speed_m_s, o.t_s, o.allowed_m_s
                 );
             }
+        }
+        if let Some(f) = &t.fault {
+            println!("  {}", FaultRun::describe(f));
         }
         if kitchen.teach_open.is_some() {
             println!(
@@ -726,6 +733,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         action_when_taken: None,
         suspension: None,
         open_teaching: None,
+        fault: None,
         series: Series::default(),
     };
     let lost = taught.unattached();
@@ -798,6 +806,8 @@ struct ExecPump {
     last_action: Option<String>,
     /// After the task: the world is watched until then (simulated s).
     settle_until: Option<f64>,
+    /// `--fault`: strikes one node and measures what it did.
+    fault: Option<FaultRun>,
 }
 
 impl ExecPump {
@@ -822,6 +832,9 @@ impl ExecPump {
                 self.speech.publish(RosString { data: text.into() })?;
             }
             self.passer_by.on_world(&w);
+            if let Some(f) = self.fault.as_mut() {
+                f.on_world(&w);
+            }
             self.last_world = Some(w.clone());
             self.judge.on_world(w);
         }
@@ -830,6 +843,9 @@ impl ExecPump {
         }
         while let Some(m) = self.joints.take() {
             self.passer_by.on_joint_state(&m);
+            if let Some(f) = self.fault.as_mut() {
+                f.on_joints(&m);
+            }
             self.last_joints = Some(m);
         }
         while let Some(m) = self.human.take() {
@@ -922,6 +938,7 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
         t_gone: None,
         last_action: None,
         settle_until: None,
+        fault: args.fault.clone().map(|spec| FaultRun::new(spec, args.fault_at, args.fault_down)),
     };
     let mut g = Graph::new(domain, &dir.join("exec"))?;
     let bin = |b: &str| args.bin_dir.join(b);
@@ -966,6 +983,11 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
     let mut taught_until: Option<f64> = None;
     loop {
         pump.pump(trial)?;
+        if let Some(f) = pump.fault.as_mut() {
+            let elapsed = pump.t_start.zip(pump.judge.last_t).map(|(s, now)| now - s);
+            let during = pump.events.iter().rev().find(|e| !e.2 && !e.3).map(|e| e.1.as_str());
+            f.step(&mut g, elapsed.filter(|_| pump.settle_until.is_none()), during)?;
+        }
         if let Err(e) = g.check_alive() {
             failure = format!("node died: {e}");
             break;
@@ -1058,6 +1080,11 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
             break;
         }
         std::thread::sleep(Duration::from_millis(4));
+    }
+    if let Some(f) = pump.fault.as_mut() {
+        // A node still stopped is continued, so that it stops as the others do.
+        f.finish(&mut g);
+        trial.fault = Some(f.outcome());
     }
     g.stop();
     let outcome = pump.passer_by.outcome();
