@@ -347,9 +347,9 @@ struct ArmIo {
     /// The arm's last action command until an event of its id arrives on the arm's
     /// robot stream: (command, when it was last sent s, how often it was sent again).
     unacked: Option<(ActionCommand, f64, u32)>,
-    /// The arm's last action command until a done or failed event of it: what a robot
-    /// manager that restarted in the middle of it is sent again.
-    running: Option<ActionCommand>,
+    /// The arm's last action command, with when it was sent (s), until a done or failed
+    /// event of it: what a robot manager that restarted in the middle of it is sent again.
+    running: Option<(ActionCommand, f64)>,
     /// The supervisor's time (s) at the arm's last robot stream message.
     stream_s: Option<f64>,
     /// The robot stream came back after this silence (s) while `running`: the command goes
@@ -538,15 +538,19 @@ impl SupervisorNode {
         // A stream silent for longer than `action_resend_s` while an action ran: its robot
         // manager stopped (killed, or stopped and continued) and may have started over without
         // it. Sent again at the next tick; a manager still running it ignores it (same label).
+        // The silence counts from the later of the last stream and the command; a message that
+        // answers the command itself (the manager has it) ends no silence.
         let now = self.last_tick_s;
-        if io.running.is_some()
+        let answers = |c: &ActionCommand| msg.events.iter().any(|e| e.command_id == c.id || e.label == c.label);
+        if let Some((c, sent_s)) = &io.running
             && let Some(last) = io.stream_s
-            && now - last > self.params.action_resend_s
+            && now - last.max(*sent_s) > self.params.action_resend_s
+            && !answers(c)
         {
-            io.silence_s = Some(now - last);
+            io.silence_s = Some(now - last.max(*sent_s));
         }
         io.stream_s = Some(now);
-        if io.running.as_ref().is_some_and(|c| msg.events.iter().any(|e| (e.done || e.failed) && (e.command_id == c.id || e.label == c.label))) {
+        if io.running.as_ref().is_some_and(|(c, _)| msg.events.iter().any(|e| (e.done || e.failed) && (e.command_id == c.id || e.label == c.label))) {
             io.running = None;
             io.silence_s = None;
         }
@@ -606,11 +610,8 @@ impl SupervisorNode {
                 Some(c) => {
                     if let Some(io) = self.arms.iter_mut().find(|a| a.name == c.arm) {
                         io.unacked = (!c.stop).then(|| (c.clone(), now.to_secs_f64(), 0));
-                        io.running = (!c.stop).then(|| c.clone());
+                        io.running = (!c.stop).then(|| (c.clone(), now.to_secs_f64()));
                         io.silence_s = None;
-                        // A silence counts from the command on (not from a stream before it,
-                        // e.g. one that came before the first tick).
-                        io.stream_s = Some(now.to_secs_f64());
                     }
                     out.push(Output::Action(c));
                 }
@@ -680,7 +681,7 @@ impl SupervisorNode {
     fn resend_after_silence(&mut self, now: Time, out: &mut Vec<Output>) {
         for io in &mut self.arms {
             let Some(silence) = io.silence_s.take() else { continue };
-            let Some(cmd) = io.running.as_mut() else { continue };
+            let Some((cmd, _)) = io.running.as_mut() else { continue };
             cmd.header.stamp = now;
             out.push(Output::Action(cmd.clone()));
             io.unacked = Some((cmd.clone(), now.to_secs_f64(), 0));
