@@ -10,8 +10,13 @@ primitive database learned in `learned` (written by launch_scripts/teach.sh), as
 Run from the repository root after `cargo build --release --bins`. The nodes are plain
 executables (not colcon packages), so they are started with ExecuteProcess. By default cowork
 keeps DDS on loopback; export ROS_AUTOMATIC_DISCOVERY_RANGE=SUBNET to reach other hosts.
+
+One graph per DDS domain on a machine: the launch holds the lease of ROS_DOMAIN_ID (default 0)
+for its life, as every cowork launcher does (`cowork domain list`), and refuses a domain another
+graph holds, naming it.
 """
 
+import fcntl
 import os
 import shutil
 
@@ -21,6 +26,34 @@ from launch.substitutions import LaunchConfiguration
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.join(ROOT, "target", "release")
+
+
+_LEASE = []  # the open lease file: held while the launch runs
+
+
+def lease_domain():
+    """Takes the lease of ROS_DOMAIN_ID as cowork_ros::domain does: an exclusive flock on
+    <locks>/<N>.lease, refused when held or when cowork nodes run on the domain (<N>.members)."""
+    domain = int(os.environ.get("ROS_DOMAIN_ID", "").strip() or 0)
+    locks = os.environ.get("COWORK_DOMAIN_LOCKS") or "/tmp/cowork-dds-domains"
+    os.makedirs(locks, mode=0o1777, exist_ok=True)
+    lease = open(os.path.join(locks, f"{domain}.lease"), "a+")
+    try:
+        fcntl.flock(lease, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        lease.seek(0)
+        holder = lease.read().strip() or "holder unknown"
+        raise RuntimeError(f"DDS domain {domain} is taken by another graph ({holder}); choose another ROS_DOMAIN_ID")
+    with open(os.path.join(locks, f"{domain}.members"), "a+") as members:
+        try:
+            fcntl.flock(members, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise RuntimeError(f"DDS domain {domain} already has cowork nodes running on it; stop them or choose another ROS_DOMAIN_ID")
+    lease.seek(0)
+    lease.truncate()
+    lease.write(f"ros2 launch cowork.launch.py (pid {os.getpid()})\n")
+    lease.flush()
+    _LEASE.append(lease)
 
 
 def node(name, *args):
@@ -58,6 +91,7 @@ def manager_and_supervisor(context):
 
 
 def generate_launch_description():
+    lease_domain()
     rate = LaunchConfiguration("rate")
     scene = LaunchConfiguration("scene")
     return LaunchDescription(

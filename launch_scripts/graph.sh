@@ -3,7 +3,11 @@
 #
 #   launch_scripts/graph.sh [--rate R | --max] [--duration S] [--logs DIR] [--scene FILE]
 #                           [--execute TASK [--learned DIR]] [--teach TASK] [--state DIR]
-#                           [--bridge [--bridge-port PORT]] [--arms "left right"]
+#                           [--bridge [--bridge-port PORT]] [--arms "left right"] [--domain N|auto]
+#
+# DDS domain: ROS_DOMAIN_ID (default 0), or --domain N, or --domain auto (a free one, printed).
+#   The graph holds it for its life (`cowork domain run`): a second graph on the same domain on
+#   this machine is refused, naming the first (`cowork domain list` shows who holds which).
 #
 # --execute TASK: the robot carries out TASK (pourDrink, prepareCoffee, ...) with what was learned
 #   in DIR (default config/learned, written by launch_scripts/teach.sh): the LTM
@@ -25,6 +29,8 @@
 # Nodes run from target/release; build first with `cargo build --release --bins`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+all_args=("$@")
+domain=${ROS_DOMAIN_ID:-0}
 
 rate_args=(--rate 1)
 duration_args=()
@@ -51,7 +57,8 @@ while [[ $# -gt 0 ]]; do
     --bridge) bridge=1; shift ;;
     --bridge-port) bridge=1; bridge_port="$2"; shift 2 ;;
     --arms) read -r -a arms <<<"$2"; shift 2 ;;
-    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    --domain) domain="$2"; shift 2 ;;
+    -h|--help) sed -n '2,28p' "$0"; exit 0 ;;
     *) echo "graph.sh: unknown argument $1" >&2; exit 2 ;;
   esac
 done
@@ -68,9 +75,17 @@ fi
 learned_dir=${learned_dir:-config/learned}
 
 bin=target/release
-for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controller robot_manager ${bridge:+cowork}; do
+for b in lwr_sim fded_distance human_observer attentional_supervisor ds_controller robot_manager cowork; do
   [[ -x $bin/$b ]] || { echo "graph.sh: $bin/$b missing; run: cargo build --release --bins" >&2; exit 1; }
 done
+# One graph per DDS domain on this machine: run again under a lease of the domain, held until
+# the graph stops (the lease sets ROS_DOMAIN_ID).
+if [[ -z ${COWORK_DOMAIN_HELD:-} ]]; then
+  lease=(--domain "$domain")
+  [[ $domain == auto ]] && lease=()
+  exec "$bin/cowork" domain run "${lease[@]}" --what "launch_scripts/graph.sh (pid $$)" -- "$0" "${all_args[@]}"
+fi
+echo "graph on ROS_DOMAIN_ID=$ROS_DOMAIN_ID (talk to it with: ROS_DOMAIN_ID=$ROS_DOMAIN_ID cowork topic list)"
 mkdir -p "$logs"
 if [[ -n $execute ]]; then
   # What the robot runs: the learned LTM, and a fresh copy of the primitive database.

@@ -9,15 +9,15 @@
 #
 #   launch_scripts/walkthrough.sh        (launch_scripts/demo.sh --walkthrough runs it after the demo)
 #
-# Needs the release binaries (cargo build --release --bins). ROS_DOMAIN_ID: yours, else a random
-# one in 30..89.
+# Needs the release binaries (cargo build --release --bins). ROS_DOMAIN_ID: yours, else a free one
+# (`cowork domain run`: no other graph on this machine has it while the walkthrough runs).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 cw=target/release/cowork
 [[ -x $cw ]] || { echo "walkthrough.sh: $cw missing; run: cargo build --release --bins" >&2; exit 1; }
 
-export ROS_DOMAIN_ID="${ROS_DOMAIN_ID:-$(( 30 + RANDOM % 60 ))}"
+[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$cw" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "launch_scripts/walkthrough.sh" -- "$0" "$@"
 logs=out/demo/graph/logs
 # A fresh teaching state: what an earlier run taught (out/) must not change what the demo shows.
 rm -rf out/demo/graph

@@ -785,10 +785,60 @@ def chaos(peer, cases):
     return failed
 
 
+LOCKS = os.environ.get("COWORK_DOMAIN_LOCKS") or "/tmp/cowork-dds-domains"
+
+
+def leased_by(pid):
+    """The DDS domains process PID holds a lease on now (cowork_ros::domain: a held flock on
+    LOCKS/<N>.lease whose text ends with `(pid PID)`), in order."""
+    import fcntl
+    found = []
+    try:
+        names = os.listdir(LOCKS)
+    except OSError:
+        return found
+    for name in names:
+        if not name.endswith(".lease"):
+            continue
+        path = os.path.join(LOCKS, name)
+        try:
+            with open(path) as f:
+                if not f.read().strip().endswith(f"(pid {pid})"):
+                    continue
+                try:
+                    fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
+                    fcntl.flock(f, fcntl.LOCK_UN)
+                    continue  # not held: a stale text
+                except OSError:
+                    found.append(int(name[:-len(".lease")]))
+        except (OSError, ValueError):
+            continue
+    return sorted(found)
+
+
+class Domains:
+    """The domains to attack: a fixed list, or (with the pid of a `cowork experiment` run) those
+    it holds leases on, looked up again each second so its execution domain, leased after the
+    teaching, is attacked too."""
+
+    def __init__(self, domain, pid=None):
+        self.pid, self.next = pid, 0.0
+        self.known, self.pending = [], ([] if pid else [domain])
+
+    def new(self):
+        """Domains not returned before."""
+        if self.pid is not None and time.monotonic() >= self.next:
+            self.next = time.monotonic() + 1.0
+            self.pending += [d for d in leased_by(self.pid) if d not in self.known and d not in self.pending]
+        fresh, self.pending = self.pending, []
+        self.known += fresh
+        return fresh
+
+
 def flood(domains, seconds):
     """Mode `flood SECONDS [PID]`: no graph of its own; drives whatever graph runs on the
-    domains (the given one, or those `cowork experiment` with process id PID gives its first
-    trial: `cowork_graph::private_domain(120, 100, k)`, k = 0 teaching, 1 execution) with
+    domains (the given one, or those the `cowork experiment` with process id PID holds leases
+    on, teaching and then execution: see `Domains`) with
     direct joint commands (0.5 rad/s on joints 1 and 2) at 100 Hz, the one attack that gets
     through without DDS security. For a secured graph against the same attack
     (tests/reliability/secured_graph.sh). Prints how many it sent."""
@@ -798,18 +848,18 @@ def flood(domains, seconds):
         Policy.DataRepresentation(use_cdrv0_representation=True),
     )
     writers = []
-    for d in domains:
-        dp = DomainParticipant(d)
-        writers.append((dp, DataWriter(dp, Topic(dp, "rt/lwr/joint_velocity_command", Float64MultiArray), qos=qos)))
     stop = []
     signal.signal(signal.SIGTERM, lambda *_: stop.append(1))
     sent, end = 0, time.monotonic() + seconds
     while time.monotonic() < end and not stop:
+        for d in domains.new():
+            dp = DomainParticipant(d)
+            writers.append((dp, DataWriter(dp, Topic(dp, "rt/lwr/joint_velocity_command", Float64MultiArray), qos=qos)))
         for _, w in writers:
             w.write(Float64MultiArray(MultiArrayLayout([], 0), [0.5, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0]))
         sent += 1
         time.sleep(0.01)
-    print(f"flood: {sent} direct joint commands sent on each of domains {domains}", flush=True)
+    print(f"flood: {sent} direct joint commands sent on each of domains {domains.known}", flush=True)
     return 0
 
 
@@ -819,15 +869,22 @@ def assault(domains, seconds, only):
     until SECONDS or SIGTERM. The trial it attacks judges itself from the simulated world
     (tests/reliability/secured_graph.sh with ATTACK=assault). Prints what it sent per class and
     how many /clock messages of the graph it could read."""
-    attackers = [Attacker(d) for d in domains]
-    per = [attacks(a) for a in attackers]
-    classes = [(rows[0][0], rows[0][3], [r[2] for r in rows])
-               for rows in zip(*per) if not only or only in rows[0][0]]
+    attackers, per, classes, sent = [], [], [], {}
     stop = []
     signal.signal(signal.SIGTERM, lambda *_: stop.append(1))
-    sent = {name: 0 for name, _, _ in classes}
     end = time.monotonic() + seconds
     while time.monotonic() < end and not stop:
+        fresh = domains.new()
+        if fresh:
+            attackers += [Attacker(d) for d in fresh]
+            per += [attacks(a) for a in attackers[-len(fresh):]]
+            classes = [(rows[0][0], rows[0][3], [r[2] for r in rows])
+                       for rows in zip(*per) if not only or only in rows[0][0]]
+            for name, _, _ in classes:
+                sent.setdefault(name, 0)
+        if not classes:
+            time.sleep(0.2)
+            continue
         for name, rate, acts in classes:
             next_at = time.monotonic()
             until = min(end, next_at + ATTACK_S)
@@ -841,7 +898,7 @@ def assault(domains, seconds, only):
                 time.sleep(0.001)
             if stop or time.monotonic() >= end:
                 break
-    print(f"assault on domains {domains}: {sum(sent.values())} messages; the graph's /clock read "
+    print(f"assault on domains {domains.known}: {sum(sent.values())} messages; the graph's /clock read "
           f"{[a.clocks for a in attackers]} times")
     for name, n in sent.items():
         print(f"  {name:42} {n:>7}")
@@ -928,10 +985,8 @@ def main():
     bin_dir = os.path.join(root, os.environ.get("BIN", "target/release"))
     if mode in ("flood", "assault"):
         seconds = float(args.pop(0)) if args else 60.0
-        domains = [domain]
-        if args:  # the pid of a `cowork experiment` run: its first trial's teaching and execution domains
-            pid = int(args.pop(0))
-            domains = [120 + ((pid * 7 + k) & 0xFFFFFFFF) % 100 for k in (0, 1)]
+        # With the pid of a `cowork experiment` run: the domains it leases, as it leases them.
+        domains = Domains(domain, int(args.pop(0)) if args else None)
         return flood(domains, seconds) if mode == "flood" else assault(domains, seconds, only)
     if mode == "secure":
         failed = secure(domain, root, bin_dir)

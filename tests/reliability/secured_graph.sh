@@ -35,7 +35,8 @@ fi
 for secured in ${RUNS:-no yes}; do
   env=()
   [[ $secured == yes ]] && env=(ROS_SECURITY_ENABLE=true ROS_SECURITY_STRATEGY=Enforce ROS_SECURITY_KEYSTORE="$ks")
-  env "${env[@]}" target/release/cowork experiment pouring --trials 1 --seed "$seed" --rate 1 \
+  # COWORK_ALLOW_STRANGERS: the unsecured trial must meet the attack, not refuse the stranger.
+  env "${env[@]}" COWORK_ALLOW_STRANGERS=1 target/release/cowork experiment pouring --trials 1 --seed "$seed" --rate 1 \
     --time-limit 120 --json "$out/pouring-$secured.json" > "$out/pouring-$secured.txt" 2>&1 &
   trial=$!
   "$VENV/bin/python" tests/crosscheck/stranger.py 0 "$attack" 400 "$trial" > "$out/stranger-$secured.txt" 2>&1 &

@@ -9,9 +9,11 @@ pub fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// A DDS domain id private to this test process, so parallel test runs never see each other.
-pub fn private_domain(offset: u16) -> u16 {
-    cowork_graph::private_domain(100, 120, u32::from(offset))
+/// A DDS domain leased for this test (no other graph on the machine has it while the lease or
+/// a clone of it lives), so parallel tests and test runs never see each other.
+pub fn private_domain() -> cowork_graph::DomainLease {
+    let test = std::thread::current().name().unwrap_or("graph test").to_owned();
+    cowork_graph::DomainLease::acquire(&format!("cowork test {test}")).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// A working directory for a graph test: `$COWORK_TEST_DIR/<name>` (kept, for the logs) when
@@ -60,9 +62,9 @@ pub struct Processes {
 }
 
 impl Processes {
-    /// No process yet; `logs` is created.
-    pub fn new(domain: u16, bin_dir: &Path, logs: &Path) -> Self {
-        let graph = cowork_graph::Graph::new(domain, logs).expect("log directory").with_working_dir(&repo_root());
+    /// No process yet, on the leased `domain`; `logs` is created.
+    pub fn new(domain: &cowork_graph::DomainLease, bin_dir: &Path, logs: &Path) -> Self {
+        let graph = cowork_graph::Graph::new(domain.clone(), logs).expect("log directory").with_working_dir(&repo_root());
         Self { graph, bin_dir: bin_dir.to_owned() }
     }
 

@@ -170,7 +170,7 @@ fn pour_without_gripper(out: &Path) -> PathBuf {
 /// stamps, `robot_manager`, `attentional_supervisor` with the bundled kitchen LTM, pourDrink,
 /// learning into `learned`), up and waiting for a demonstration; the feed of the pour bag
 /// without its gripper words, ready on `probe`'s participant.
-fn teaching_graph(dir: &Path, domain: u16, bins: &Path, probe: &mut Probe, learned: &Path) -> (Processes, TeachingFeed) {
+fn teaching_graph(dir: &Path, domain: &cowork_graph::DomainLease, bins: &Path, probe: &mut Probe, learned: &Path) -> (Processes, TeachingFeed) {
     let lwr_teach = config_set("lwr_sim.yaml", &[("enabled", "false")], &dir.join("lwr_teach.yaml"));
     let mut g = Processes::new(domain, bins, &dir.join("teach"));
     g.spawn("lwr_sim", &["--params", p(&lwr_teach), "--rate", TEACH_RATE, "--follow-wrench-stamps"]);
@@ -240,12 +240,12 @@ fn bad_inputs_are_named_and_hold_the_robot_with_every_node_alive() {
     let wall = Instant::now();
     let bins = node_bin_dir(&NODES);
     let (_keep, dir) = test_dir("graph_bad_inputs");
-    let domain = private_domain(47);
-    let mut probe = Probe::new(domain);
+    let domain = private_domain();
+    let mut probe = Probe::new(domain.id());
 
     // ---- 1. Teaching graph.
     let learned = dir.join("learned.schema");
-    let (mut g, feed) = teaching_graph(&dir, domain, &bins, &mut probe, &learned);
+    let (mut g, feed) = teaching_graph(&dir, &domain, &bins, &mut probe, &learned);
     probe.drain();
     let t_ready = wall.elapsed().as_secs_f64();
 
@@ -257,11 +257,13 @@ fn bad_inputs_are_named_and_hold_the_robot_with_every_node_alive() {
     });
     assert_held("(a) done without teach", &probe, &mut g, 1.0);
 
-    // (b) A task the LTM does not have.
+    // (b) A task the LTM does not have (a node of this graph: its graph id).
+    let graph_id = g.graph().id().to_owned();
     let out = Command::new(bins.join("attentional_supervisor"))
         .args(["--ltm", "config/tasks/kitchen.schema", "--task", "noSuchTask", "--use-sim-time"])
         .current_dir(repo_root())
-        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_DOMAIN_ID", domain.id().to_string())
+        .env("COWORK_GRAPH_ID", graph_id)
         .env_remove("RUST_BACKTRACE")
         .env_remove("RUST_LIB_BACKTRACE")
         .output()
@@ -301,7 +303,7 @@ fn bad_inputs_are_named_and_hold_the_robot_with_every_node_alive() {
     let learned_dir = repo_root().join("config/learned");
     std::fs::copy(learned_dir.join("primitives/lwr.primitives.json"), exec.join("primitives/lwr.primitives.json")).expect("copy db");
     let ds = config_set("ds_controller.yaml", &[("stale_after_s", "0.5"), ("slow_after_s", "0.3")], &exec.join("ds_controller.yaml"));
-    let mut g = Processes::new(domain, &bins, &exec.join("logs"));
+    let mut g = Processes::new(&domain, &bins, &exec.join("logs"));
     g.spawn("lwr_sim", &["--rate", EXEC_RATE]);
     g.spawn("fded_distance", &["--params", "config/fded_distance.yaml", "--use-sim-time", "--backend", "cpu"]);
     g.spawn("human_observer", &["--params", "config/human_observer.yaml", "--use-sim-time"]);

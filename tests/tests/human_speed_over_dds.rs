@@ -192,12 +192,12 @@ fn tool_speed_follows_the_person_and_the_stop_and_come_gestures() {
 
     let dir = tempfile::tempdir().expect("tempdir");
     let (scene, ds_params) = write_configs(dir.path());
-    let domain = private_domain(17);
-    let mut graph = Processes::new(domain, &bins, &dir.path().join("logs"));
+    let domain = private_domain();
+    let mut graph = Processes::new(&domain, &bins, &dir.path().join("logs"));
     let sim_limit = format!("{:.0}", end + 60.0);
     let wall_limit = format!("{:.0}", WALL_LIMIT_S + 120.0);
     // The test's node first, so that it misses nothing of the graph's.
-    let mut node = RosNode::new("human_speed_test", &NodeConfig { domain_id: Some(domain), use_sim_time: true, ..Default::default() }).expect("node");
+    let mut node = RosNode::new("human_speed_test", &NodeConfig { domain_id: Some(domain.id()), use_sim_time: true, ..Default::default() }).expect("node");
     let states = node.subscription::<HumanState>("/human/state", &qos::reliable_depth(500)).expect("sub");
     let gesture_sub = node.subscription::<Gesture>("/human/gesture", &qos::reliable_depth(20)).expect("sub");
     let world = node.subscription::<WorldState>("/lwr/world", &qos::reliable_depth(500)).expect("sub");

@@ -44,11 +44,11 @@ fn the_left_arm_follows_an_xsens_demonstrator_and_learns_the_pizza_task_over_dds
     let options = cowork_synth::SynthOptions { seed: 0, depth: false, config_dir: repo_root().join("config"), ..Default::default() };
     cowork_synth::synthesize(cowork_synth::Scenario::PizzaDemoLeft, &options, &bag, &mut |_| {}).expect("synthesised");
 
-    let domain = private_domain(47);
+    let domain = private_domain();
     let sim_params = config_set("lwr_sim.yaml", &[("enabled", "false")], &dir.join("lwr_teach.yaml"));
     let learned = dir.join("learned.schema");
     let db_dir = dir.join("primitives");
-    let mut g = Processes::new(domain, &bins, &dir.join("logs"));
+    let mut g = Processes::new(&domain, &bins, &dir.join("logs"));
     g.spawn(
         "lwr_sim",
         &["--scene", p(&repo_root().join("config/scenes/pizza-teach-left.yaml")), "--params", p(&sim_params), "--rate", "4", "--follow-wrench-stamps"],
@@ -59,7 +59,7 @@ fn the_left_arm_follows_an_xsens_demonstrator_and_learns_the_pizza_task_over_dds
     g.spawn_in("human_observer", "left", &["--use-sim-time", "--gestures", ""]);
     g.spawn("attentional_supervisor", &["--ltm", "config/tasks/pizza.schema", "--task", "pizza", "--use-sim-time", "--save-ltm", p(&learned)]);
 
-    let mut node = RosNode::new("teacher", &NodeConfig { domain_id: Some(domain), use_sim_time: true, ..Default::default() }).expect("node");
+    let mut node = RosNode::new("teacher", &NodeConfig { domain_id: Some(domain.id()), use_sim_time: true, ..Default::default() }).expect("node");
     let robots: Vec<_> = ["/left", "/right"].iter().map(|ns| node.subscribe_in(&topics::ROBOT_STREAM, ns).expect("sub")).collect();
     let joints = node.subscribe_in(&topics::JOINT_STATES.reading(Delivery::BestEffort { depth: 5000 }), "/left").expect("sub");
     let feed = TeachingFeed::from_bags_in(&mut node, &[&bag], "/left").expect("bag");

@@ -36,9 +36,9 @@ fn latest(sub: &cowork_ros::Subscription<JointState>, timeout: Duration) -> Opti
 
 #[test]
 fn velocity_commands_move_the_joints_and_bad_ones_hold_the_robot() {
-    let domain = private_domain(1);
-    let sim = start_sim(domain, 8.0);
-    let mut client = RosNode::new("test_client", &NodeConfig { domain_id: Some(domain), ..Default::default() }).unwrap();
+    let domain = private_domain();
+    let sim = start_sim(domain.id(), 8.0);
+    let mut client = RosNode::new("test_client", &NodeConfig { domain_id: Some(domain.id()), ..Default::default() }).unwrap();
     let states = client.subscription::<JointState>("/joint_states", &qos::reliable()).unwrap();
     let commands = client
         .publisher::<Float64MultiArray>("/lwr/joint_velocity_command", &qos::reliable())

@@ -148,20 +148,20 @@ fn pour_taught_from_the_bag_runs_with_the_bottle_where_it_never_was() {
     let wall = Instant::now();
     let bins = node_bin_dir(&NODES);
     let (_keep, dir) = test_dir("teach_execute_pour");
-    let domain = private_domain(41);
+    let domain = private_domain();
     let db_dir = dir.join("primitives");
     let learned = dir.join("learned.schema");
 
     // ---- 1. Teaching from the bag.
     let lwr_teach = config_set("lwr_sim.yaml", &[("enabled", "false")], &dir.join("lwr_teach.yaml"));
-    let mut g = Processes::new(domain, &bins, &dir.join("teach"));
+    let mut g = Processes::new(&domain, &bins, &dir.join("teach"));
     g.spawn("lwr_sim", &["--params", p(&lwr_teach), "--rate", TEACH_RATE, "--follow-wrench-stamps"]);
     g.spawn("robot_manager", &["--use-sim-time", "--database-dir", p(&db_dir)]);
     g.spawn(
         "attentional_supervisor",
         &["--ltm", "config/tasks/kitchen.schema", "--task", "pourDrink", "--use-sim-time", "--save-ltm", p(&learned)],
     );
-    let mut node = RosNode::new("teacher", &NodeConfig { domain_id: Some(domain), use_sim_time: true, ..Default::default() })
+    let mut node = RosNode::new("teacher", &NodeConfig { domain_id: Some(domain.id()), use_sim_time: true, ..Default::default() })
         .expect("test node");
     let robot = node.subscription::<RobotStream>("/robot_stream", &qos::reliable_depth(100)).expect("sub");
     let feed = TeachingFeed::new(&mut node, &repo_root().join("bags/kinesthetic-pour.mcap")).expect("bag");
@@ -254,7 +254,7 @@ fn pour_taught_from_the_bag_runs_with_the_bottle_where_it_never_was() {
             && ds_text.contains("      scene: config/scenes/kitchen.yaml"),
         "obstacle avoidance (modulation of the end effector and the links) and the link damper, knowing the scene's objects, are on in the bundled parameters"
     );
-    let mut g = Processes::new(domain, &bins, &exec.join("logs"));
+    let mut g = Processes::new(&domain, &bins, &exec.join("logs"));
     g.spawn("lwr_sim", &["--scene", p(&scene), "--rate", EXEC_RATE]);
     g.spawn("fded_distance", &["--params", "config/fded_distance.yaml", "--use-sim-time", "--backend", "cpu"]);
     g.spawn("human_observer", &["--params", "config/human_observer.yaml", "--use-sim-time"]);

@@ -61,10 +61,10 @@ fn two_arms_each_follow_their_own_commands_and_never_touch() {
     );
     let fded = repo_root().join("config/fded_distance.yaml");
 
-    let domain = private_domain(23);
-    let mut graph = Processes::new(domain, &bins, &dir.path().join("logs"));
+    let domain = private_domain();
+    let mut graph = Processes::new(&domain, &bins, &dir.path().join("logs"));
     let wall = format!("{:.0}", WALL_LIMIT_S + 60.0);
-    let mut node = RosNode::new("two_arms_test", &NodeConfig { domain_id: Some(domain), use_sim_time: true, ..Default::default() }).expect("node");
+    let mut node = RosNode::new("two_arms_test", &NodeConfig { domain_id: Some(domain.id()), use_sim_time: true, ..Default::default() }).expect("node");
     let statics = node.subscription::<TFMessage>("/tf_static", &qos::latched()).expect("sub");
     let mut worlds = Vec::new();
     let mut joints = Vec::new();

@@ -122,10 +122,10 @@ fn two_arms_share_the_central_area_one_at_a_time() {
         &dir.path().join("ds_controller.yaml"),
     );
 
-    let domain = private_domain(29);
-    let mut graph = Processes::new(domain, &bins, &dir.path().join("logs"));
+    let domain = private_domain();
+    let mut graph = Processes::new(&domain, &bins, &dir.path().join("logs"));
     let wall = format!("{:.0}", WALL_LIMIT_S + 60.0);
-    let mut node = RosNode::new("two_arms_supervised_test", &NodeConfig { domain_id: Some(domain), use_sim_time: true, ..Default::default() }).expect("node");
+    let mut node = RosNode::new("two_arms_supervised_test", &NodeConfig { domain_id: Some(domain.id()), use_sim_time: true, ..Default::default() }).expect("node");
     let statics = node.subscription::<TFMessage>("/tf_static", &qos::latched()).expect("sub");
     let actions = node.subscription::<ActionCommand>("/supervisor/action", &qos::reliable_depth(100)).expect("sub");
     let mut joints = Vec::new();

@@ -32,8 +32,8 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn private_domain(offset: u16) -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(7).wrapping_add(offset) % 120)
+fn private_domain() -> u16 {
+    cowork_ros::domain::test_domain("attentional_supervisor test")
 }
 
 fn kitchen() -> Ltm {
@@ -307,7 +307,7 @@ fn pouring_taught_then_executed_over_dds() {
     let saved = dir.path().join("learned.schema");
 
     // Teaching: segments from the robot manager, speech from the person.
-    let domain = private_domain(61);
+    let domain = private_domain();
     let node = start(domain, kitchen(), "pourDrink", false, Some(&saved));
     let mut c = Client::new(domain, None);
     c.set_objects(&[("water", 0.6, true), ("cup", 0.9, true)]);
@@ -350,7 +350,7 @@ fn pouring_taught_then_executed_over_dds() {
     assert_eq!(text, reference.ltm().to_text(), "learned over DDS = learned from the script");
 
     // Execution of the saved LTM, on /clock time starting at 1000 s.
-    let domain = private_domain(62);
+    let domain = private_domain();
     let node = start(domain, Ltm::load(&saved).expect("reload"), "pourDrink", true, None);
     let mut c = Client::new(domain, Some(1000.0));
     c.set_objects(&[("water", 0.6, true), ("cup", 0.9, true)]);
@@ -393,7 +393,7 @@ fn cooperative_coffee_replans_within_a_tick_over_dds() {
         std::fs::read_to_string(root().join("nodes/lib/supervisor/tests/data/coffee_teach.jsonl")).expect("script");
     runner::run(&mut teacher, &parse_jsonl(&script).expect("script"), &RunConfig::default(), |_, _, _, _| {});
 
-    let domain = private_domain(63);
+    let domain = private_domain();
     let node = start(domain, teacher.ltm().clone(), "prepareCoffee", false, None);
     let mut c = Client::new(domain, None);
     c.auto_complete = false;
@@ -461,7 +461,7 @@ fn cooperative_coffee_replans_within_a_tick_over_dds() {
 fn two_arms_make_the_pizza_over_dds() {
     use common::{BASES, object_stream, taught_pizza, tf_static};
 
-    let domain = private_domain(64);
+    let domain = private_domain();
     let node = start(domain, taught_pizza(), "pizza", false, None);
     let mut client =
         RosNode::new("test_robot_managers", &NodeConfig { domain_id: Some(domain), ..Default::default() }).expect("client node");

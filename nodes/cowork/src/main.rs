@@ -29,6 +29,9 @@ enum Command {
     /// Inspect live topics over DDS (no ROS installation needed).
     #[command(subcommand)]
     Topic(cmd::topic::TopicCommand),
+    /// DDS domains of this machine's graphs: run a command on a free one, list who holds which.
+    #[command(subcommand)]
+    Domain(cmd::domain::DomainCommand),
     /// ROS 2 nodes on the domain (`cowork node list`).
     #[command(subcommand)]
     Node(NodeCommand),
@@ -92,6 +95,13 @@ enum BenchCommand {
 fn main() -> std::process::ExitCode {
     cowork_ros::init_logging();
     let cli = Cli::parse();
+    if let Command::Domain(c) = cli.command {
+        // `domain run` exits with its command's status.
+        return cmd::domain::run(c).unwrap_or_else(|e| {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        });
+    }
     // One line `error: ...` with the context chain; a backtrace only with RUST_BACKTRACE=1.
     cowork_ros::exit_code(run(cli.command))
 }
@@ -118,5 +128,6 @@ fn run(command: Command) -> Result<()> {
         Command::Bench(BenchCommand::Gestures(a)) => cmd::observe::bench(a),
         Command::Observe(a) => cmd::observe::observe(a),
         Command::Keystore(c) => cmd::keystore::run(c),
+        Command::Domain(_) => unreachable!("handled in main"),
     }
 }

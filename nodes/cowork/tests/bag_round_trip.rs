@@ -24,8 +24,8 @@ fn repo_root() -> PathBuf {
 }
 
 /// A domain for this test run, away from other tests and a running graph.
-fn domain(k: u16) -> u16 {
-    150 + (std::process::id() % 30) as u16 * 2 + k
+fn domain() -> u16 {
+    cowork_ros::domain::test_domain("cowork bag round-trip test")
 }
 
 fn cowork(domain: u16, args: &[&str]) -> anyhow::Result<Child> {
@@ -91,7 +91,7 @@ fn record_play_record_gives_the_same_messages_and_timing() -> TestResult {
     let first = dir.path().join("first.mcap");
     // The second recording is a rosbag2 directory (`-o NAME` without .mcap).
     let second = dir.path().join("second");
-    let (a, b) = (domain(0), domain(1));
+    let (a, b) = (domain(), domain());
 
     // The graph on domain a: lwr_sim at 1x (joint states at 1 kHz would make a large bag in a
     // debug build; 100 Hz keeps the test light), a camera, an unknown type. lwr_sim's own

@@ -22,7 +22,7 @@ const URDF: &str = "<robot name=\"bridge_test\"><link name=\"base\"/></robot>";
 
 /// A domain for this test run, away from the other tests and a running graph.
 fn domain() -> u16 {
-    170 + (std::process::id() % 25) as u16
+    cowork_ros::domain::test_domain("cowork bridge test")
 }
 
 /// Stops the bridge with SIGINT (so it prints its figures) when the test ends, even on failure.

@@ -12,7 +12,7 @@ use cowork_ros::{NodeConfig, RosNode, qos};
 
 /// A domain for this test run, away from other tests and a running graph.
 fn domain() -> u16 {
-    200 + (std::process::id() % 30) as u16
+    cowork_ros::domain::test_domain("cowork introspection test")
 }
 
 fn cowork(domain: u16, args: &[&str]) -> String {

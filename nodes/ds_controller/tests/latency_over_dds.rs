@@ -25,7 +25,7 @@ use ds_controller::Params;
 fn a_refused_command_is_answered_within_milliseconds() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let model = RobotModel::from_urdf_file(root.join("config/robot/lwr4plus.urdf")).expect("URDF");
-    let domain = 100 + (std::process::id() as u16).wrapping_mul(13) % 120;
+    let domain = cowork_ros::domain::test_domain("ds_controller latency test");
     let config = NodeConfig { domain_id: Some(domain), ..Default::default() };
     let stop = Arc::new(AtomicBool::new(false));
     let options = RunOptions { duration_s: Some(120.0), stop: Some(Arc::clone(&stop)) };

@@ -31,8 +31,8 @@ fn model() -> RobotModel {
     RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF")
 }
 
-fn private_domain(offset: u16) -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(11).wrapping_add(offset * 37) % 120)
+fn private_domain() -> u16 {
+    cowork_ros::domain::test_domain("ds_controller test")
 }
 
 struct Graph {
@@ -62,9 +62,9 @@ struct Client {
 impl Graph {
     /// Starts lwr_sim (kitchen scene, real-time pacing, `sim_s` simulated seconds at most) and
     /// ds_controller on `/clock`, and a client that has discovered both.
-    fn start(offset: u16, sim_s: f64) -> Self {
+    fn start(sim_s: f64) -> Self {
         let lock = ONE_GRAPH.lock().unwrap_or_else(|p| p.into_inner());
-        let domain = private_domain(offset);
+        let domain = private_domain();
         let model = model();
         let mut sim_config: LwrSimConfig =
             cowork_ros::params::load(&root().join("config/lwr_sim.yaml"), "lwr_sim").expect("lwr_sim params");
@@ -255,7 +255,7 @@ fn status_is(c: &Client, id: u32, state: u8) -> bool {
 
 #[test]
 fn lwr_sim_and_ds_controller_reach_a_goal() {
-    let mut g = Graph::start(1, 60.0);
+    let mut g = Graph::start(60.0);
     let x0 = g.tcp();
     let goal = x0 + nalgebra::Vector3::new(0.05, 0.12, -0.04);
     // Without fresh distances and human data the robot is held.
@@ -313,7 +313,7 @@ fn lwr_sim_and_ds_controller_reach_a_goal() {
 
 #[test]
 fn watchdog_stops_on_lost_distances_and_resumes() {
-    let mut g = Graph::start(2, 80.0);
+    let mut g = Graph::start(80.0);
     let x0 = g.tcp();
     let goal = x0 + nalgebra::Vector3::new(0.0, 0.30, 0.0);
     // A constant-speed motion at 0.1 m/s: 3 s over 30 cm, long enough to cut the data mid-way.
@@ -389,7 +389,7 @@ fn watchdog_stops_on_lost_distances_and_resumes() {
 
 #[test]
 fn bad_input_is_rejected_with_a_reason_and_the_robot_held() {
-    let mut g = Graph::start(3, 80.0);
+    let mut g = Graph::start(80.0);
     let x0 = g.tcp();
 
     // Unknown primitive kind.

@@ -37,7 +37,7 @@ fn off_line(p: &V3<f64>, a: &V3<f64>, u: &V3<f64>) -> V3<f64> {
 #[test]
 fn a_light_push_is_absorbed_and_a_firm_push_takes_the_end_effector_along() {
     cowork_ros::init_logging();
-    let domain = 100 + ((std::process::id() as u16).wrapping_mul(13).wrapping_add(71) % 120);
+    let domain = cowork_ros::domain::test_domain("ds_controller ttc test");
     let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF");
     let mut sim_config: LwrSimConfig =
         cowork_ros::params::load(&root().join("config/lwr_sim.yaml"), "lwr_sim").expect("lwr_sim params");

@@ -245,7 +245,7 @@ fn bundled_parameters_are_valid_and_typos_fail() {
 }
 
 fn private_domain() -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(11).wrapping_add(3) % 120)
+    cowork_ros::domain::test_domain("fded_distance node test")
 }
 
 #[test]

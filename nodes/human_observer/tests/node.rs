@@ -93,7 +93,7 @@ fn handlers_publish_every_frame_tick_when_nobody_and_fail_closed() {
 }
 
 fn private_domain() -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(13).wrapping_add(5) % 120)
+    cowork_ros::domain::test_domain("human_observer node test")
 }
 
 #[test]

@@ -16,8 +16,8 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn private_domain(offset: u16) -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(11).wrapping_add(offset + 60) % 120)
+fn private_domain() -> u16 {
+    cowork_ros::domain::test_domain("lwr_sim depth test")
 }
 
 fn start_sim(domain: u16, config: LwrSimConfig, seconds: f64) -> std::thread::JoinHandle<anyhow::Result<()>> {
@@ -65,7 +65,7 @@ fn local_render() -> (DepthRenderer, DepthImage, JointVector, Scene) {
 
 #[test]
 fn depth_frames_show_the_robot_where_forward_kinematics_puts_it() {
-    let domain = private_domain(1);
+    let domain = private_domain();
     let sim = start_sim(domain, config(false, "32FC1"), 6.0);
     let mut client = RosNode::new("depth_client", &NodeConfig { domain_id: Some(domain), ..Default::default() }).unwrap();
     let images = client.subscribe(&topics::DEPTH_IMAGE).unwrap();
@@ -141,7 +141,7 @@ fn depth_frames_show_the_robot_where_forward_kinematics_puts_it() {
 
 #[test]
 fn noisy_16uc1_frames_arrive_at_the_camera_rate() {
-    let domain = private_domain(2);
+    let domain = private_domain();
     let sim = start_sim(domain, config(true, "16UC1"), 6.0);
     let mut client = RosNode::new("depth_client", &NodeConfig { domain_id: Some(domain), ..Default::default() }).unwrap();
     let images = client.subscribe(&topics::DEPTH_IMAGE).unwrap();

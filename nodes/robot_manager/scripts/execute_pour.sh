@@ -23,7 +23,8 @@ done
 rm -rf "$out"
 mkdir -p "$out"
 cp -r "$teach/primitives" "$out/primitives"
-export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( 100 + RANDOM % 100 ))}
+# A DDS domain no other graph on this machine has (yours if ROS_DOMAIN_ID is set), held until the end.
+[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$bin/cowork" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "execute_pour.sh" -- "$0" "$@"
 # The bottle somewhere it never was while taught (same height, upright).
 sed "s/name: bottle, \(.*\)pose: { position: \[0.45, 0.35, 0.11\] }/name: bottle, \1pose: { position: [$bx, $by, 0.11] }/" \
   config/scenes/kitchen.yaml > "$out/scene.yaml"

@@ -20,7 +20,8 @@ for b in lwr_sim robot_manager attentional_supervisor cowork; do
 done
 rm -rf "$out"
 mkdir -p "$out"
-export ROS_DOMAIN_ID=${ROS_DOMAIN_ID:-$(( 100 + RANDOM % 100 ))}
+# A DDS domain no other graph on this machine has (yours if ROS_DOMAIN_ID is set), held until the end.
+[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$bin/cowork" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "teach_from_bag.sh" -- "$0" "$@"
 # No depth camera: nothing here reads it, and rendering would load the machine.
 sed 's/^      enabled: true/      enabled: false/' config/lwr_sim.yaml > "$out/lwr_sim.yaml"
 pids=()

@@ -20,7 +20,7 @@ fn root() -> PathBuf {
 
 #[test]
 fn every_topic_is_wired() {
-    let domain = 100 + ((std::process::id() as u16).wrapping_mul(13) % 120);
+    let domain = cowork_ros::domain::test_domain("robot_manager test");
     let dir = tempfile::tempdir().expect("tempdir");
     let model = RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).expect("URDF");
     let mut sim_config: LwrSimConfig = cowork_ros::params::load(&root().join("config/lwr_sim.yaml"), "lwr_sim").expect("params");

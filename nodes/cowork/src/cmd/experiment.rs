@@ -131,11 +131,6 @@ impl ExperimentArgs {
     }
 }
 
-/// A DDS domain of our own for trial `k` (process id based, so parallel runs rarely meet).
-fn private_domain(k: u32) -> u16 {
-    cowork_graph::private_domain(120, 100, k)
-}
-
 /// Runs the experiment and writes what was asked.
 pub fn run(args: ExperimentArgs) -> Result<()> {
     if args.fault.is_some() && !super::kitchen::NAMES.contains(&args.name.as_str()) {
@@ -215,11 +210,11 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     shutdown::install();
     let mut results = Vec::new();
     let mut report = Vec::new();
-    for (k, exp) in trials.iter().enumerate() {
+    for exp in &trials {
         if shutdown::requested() {
             break;
         }
-        let (r, series) = run_trial(&args, exp, &model, k as u32)?;
+        let (r, series) = run_trial(&args, exp, &model)?;
         report.push(report_trial(
             &format!("{} seed {} ({})", exp.name, r.seed, r.distance),
             &r,
@@ -477,14 +472,13 @@ fn run_trial(
     args: &ExperimentArgs,
     exp: &Experiment,
     model: &RobotModel,
-    k: u32,
 ) -> Result<(TrialResult, cowork_experiment::Series)> {
     let wall0 = Instant::now();
     let tag = format!("{}-{}-{}", exp.name, exp.distance.as_str(), exp.seed);
     let logs = args.logs.join(&tag);
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
-    let domain = private_domain(k);
-    let mut graph = cowork_graph::Graph::new(domain, &logs)?;
+    let mut graph = cowork_graph::Graph::leased(&format!("cowork experiment {tag}"), &logs)?;
+    let domain = graph.domain();
     let bin = |b: &str| args.bin_dir.join(b);
     let scene = exp.scene_path.display().to_string();
     let mut sim_args = vec![

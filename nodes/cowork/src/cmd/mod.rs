@@ -6,6 +6,7 @@ pub mod bench_control;
 pub mod bench_lasa;
 pub mod bridge;
 pub mod bridge_stats;
+pub mod domain;
 pub mod experiment;
 pub mod kitchen;
 pub mod pizza;

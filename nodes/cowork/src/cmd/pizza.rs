@@ -275,7 +275,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             _ if k % 5 < 3 => "left",
             _ => "right",
         };
-        let t = execute_trial(args, &scene, &ltm, &database_dir, &dir, seed, k, area)?;
+        let t = execute_trial(args, &scene, &ltm, &database_dir, &dir, seed, area)?;
         println!(
             "pizza {mode} seed {seed} ({area}): {} — {:.1} s; central area both {} samples; clearance {}; lowest link {}; {:.0} s wall{}",
             if t.success { "success" } else { "FAILED" },
@@ -307,7 +307,7 @@ fn teach_both_arms(args: &ExperimentArgs, dir: &Path) -> Result<(PizzaTeaching, 
     let database_dir = dir.join("primitives");
     let mut ltm = PathBuf::from("config/tasks/pizza.schema");
     let mut teaching = PizzaTeaching::default();
-    for (k, (arm, scenario)) in [("left", Scenario::PizzaDemoLeft), ("right", Scenario::PizzaDemoRight)].into_iter().enumerate() {
+    for (arm, scenario) in [("left", Scenario::PizzaDemoLeft), ("right", Scenario::PizzaDemoRight)] {
         let bag = dir.join(format!("{}.mcap", scenario.name()));
         let synth = SynthOptions { seed: args.seed, depth: false, vary_teacher: true, ..SynthOptions::default() };
         cowork_synth::synthesize(scenario, &synth, &bag, &mut |_| {})
@@ -325,7 +325,7 @@ fn teach_both_arms(args: &ExperimentArgs, dir: &Path) -> Result<(PizzaTeaching, 
             bin_dir: args.bin_dir.clone(),
             logs: dir.join(format!("teach-{arm}")),
             startup_timeout_s: args.startup_timeout,
-            domain: cowork_graph::private_domain(120, 100, 50 + k as u32),
+            domain: cowork_graph::DomainLease::acquire(&format!("cowork experiment pizza teaching {arm}"))?,
             arms: ARMS.iter().map(|a| (*a).to_owned()).collect(),
         };
         let taught = teach(&setup).with_context(|| format!("teaching the {arm} arm"))?;
@@ -649,7 +649,7 @@ fn iso(p: &cowork_msgs::geometry_msgs::Pose) -> Isometry3<f64> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir: &Path, dir: &Path, seed: u64, k: u32, area: &str) -> Result<PizzaTrial> {
+fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir: &Path, dir: &Path, seed: u64, area: &str) -> Result<PizzaTrial> {
     let wall = Instant::now();
     let placed = ingredient_positions(area, seed)?;
     let mut exec_scene = scene.clone();
@@ -663,7 +663,8 @@ fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir:
     let scene_path = trial_dir.join("pizza.yaml");
     std::fs::write(&scene_path, serde_yaml_ng::to_string(&exec_scene)?).with_context(|| format!("writing {}", scene_path.display()))?;
     let model = RobotModel::from_urdf_file("config/robot/lwr4plus.urdf").context("config/robot/lwr4plus.urdf")?;
-    let domain = cowork_graph::private_domain(120, 100, 60 + 2 * k);
+    let lease = cowork_graph::DomainLease::acquire(&format!("cowork experiment pizza seed {seed}"))?;
+    let domain = lease.id();
     let limit_s = args.time_limit.unwrap_or(900.0);
     let wall_limit = args.startup_timeout + 4.0 * limit_s / args.rate + 60.0;
     let dur = format!("{wall_limit:.0}");
@@ -682,7 +683,7 @@ fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir:
         t_start: None,
         now: 0.0,
     };
-    let mut g = Graph::new(domain, &trial_dir.join("exec"))?;
+    let mut g = Graph::new(lease, &trial_dir.join("exec"))?;
     let s = |p: &Path| p.display().to_string();
     if let Some(rec) = &args.record {
         std::fs::create_dir_all(rec).with_context(|| format!("creating {}", rec.display()))?;

@@ -848,8 +848,8 @@ pub(super) fn with_graph<R>(
     db.insert_hmm(HMM_ID, "place(object)", hmm, unix_now())?;
     db.save(&db_path)?;
 
-    let domain = cowork_graph::private_domain(130, 100, k);
-    let mut graph = Graph::new(domain, &logs)?;
+    let mut graph = Graph::leased(&format!("cowork experiment refine seed {k}"), &logs)?;
+    let domain = graph.domain();
     let sim_params = sim_params(&logs)?;
     let mut node = RosNode::new("cowork_experiment", &NodeConfig { use_sim_time: true, domain_id: Some(domain), ..NodeConfig::default() })?;
     let io = Io {

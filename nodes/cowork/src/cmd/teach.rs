@@ -95,8 +95,8 @@ pub struct TeachSetup {
     pub logs: PathBuf,
     /// Wall s for the graph to come up.
     pub startup_timeout_s: f64,
-    /// DDS domain.
-    pub domain: u16,
+    /// The DDS domain leased for the teaching graph.
+    pub domain: cowork_graph::DomainLease,
     /// Named arms (empty: the single-arm graph, kinesthetic teaching).
     pub arms: Vec<String>,
 }
@@ -177,7 +177,7 @@ pub fn run(args: TeachArgs) -> Result<()> {
         bin_dir: args.bin_dir,
         logs: args.logs,
         startup_timeout_s: args.startup_timeout,
-        domain: cowork_graph::private_domain(20, 80, 0),
+        domain: cowork_graph::DomainLease::acquire("cowork teach")?,
         arms: args.arms.into_iter().filter(|a| !a.is_empty()).collect(),
     };
     cowork_ros::shutdown::install();
@@ -329,7 +329,7 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
 
     let mut node = RosNode::new(
         "cowork_teach",
-        &NodeConfig { domain_id: Some(s.domain), use_sim_time: true, ..NodeConfig::default() },
+        &NodeConfig { domain_id: Some(s.domain.id()), use_sim_time: true, ..NodeConfig::default() },
     )?;
     let arm_namespaces: Vec<(String, String)> =
         if imitation { s.arms.iter().map(|a| (a.clone(), format!("/{a}"))).collect() } else { vec![(String::new(), "/".into())] };
@@ -352,7 +352,7 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
     let demonstration_s = bag_s.iter().sum();
     let feed_s = feed.duration_s();
 
-    let mut g = Graph::new(s.domain, &s.logs)?;
+    let mut g = Graph::new(s.domain.clone(), &s.logs)?;
     // Nothing outlives a killed `cowork teach` for long.
     let limit_s = s.startup_timeout_s + 30.0 + 8.0 * (feed_s + 5.0) / s.rate.min(1.0);
     let dur = format!("{limit_s:.0}");

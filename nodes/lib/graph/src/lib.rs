@@ -2,7 +2,9 @@
 //! starts, watches and stops them, shared by `cowork experiment`, `cowork teach` and the graph
 //! tests.
 //!
-//! A [`Graph`] runs node binaries on one private `ROS_DOMAIN_ID`, each with its stdout and
+//! A [`Graph`] runs node binaries on one private `ROS_DOMAIN_ID` it holds a
+//! [`DomainLease`] on (two graphs on one machine never share a domain), and refuses to go on
+//! when a [`Stranger`] (a participant it did not start) writes on its topics. Each node with its stdout and
 //! stderr in `<logs>/<name>.log`; it names the first process that died (exit status, end of its
 //! log) and stops them all as `ros2 launch` does: SIGINT (the nodes save what they learned and
 //! stop cleanly), SIGTERM after 2 s to any still running (a process started with SIGINT ignored,
@@ -12,9 +14,10 @@
 //! `/speech_command` of one or more bags) into such a graph on the simulated clock.
 //!
 //! ```no_run
-//! use cowork_graph::{Graph, private_domain};
+//! use cowork_graph::Graph;
 //! # fn main() -> Result<(), cowork_graph::Error> {
-//! let mut graph = Graph::new(private_domain(100, 120, 0), "out/logs".as_ref())?;
+//! // A DDS domain no other graph on this machine has (see `cowork_ros::domain`).
+//! let mut graph = Graph::leased("my experiment", "out/logs".as_ref())?;
 //! graph.spawn("lwr_sim", "target/release/lwr_sim".as_ref(), &["--rate", "2"])?;
 //! graph.check_alive()?;
 //! graph.stop();
@@ -29,6 +32,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
+pub use cowork_ros::domain::{DomainError, DomainLease};
+pub use cowork_ros::graph::Stranger;
 pub use feed::{FeedSummary, TeachingFeed};
 /// The signals [`Graph::signal`] sends.
 pub use nix::sys::signal::Signal;
@@ -93,6 +98,26 @@ pub enum Error {
         /// Messages not yet published.
         left: usize,
     },
+    /// No DDS domain could be leased.
+    #[error(transparent)]
+    Domain(#[from] DomainError),
+    /// Participants the graph did not start write on its topics: its nodes would read their
+    /// messages as the graph's.
+    #[error("DDS domain {domain}: {} — the graph refuses to go on reading a stranger's messages (set COWORK_ALLOW_STRANGERS=1 to only warn)", strangers.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
+    Strangers {
+        /// The graph's domain.
+        domain: u16,
+        /// Who.
+        strangers: Vec<Stranger>,
+    },
+    /// The graph's stranger watch could not join the domain.
+    #[error("DDS domain {domain}: cannot watch for strangers: {message}")]
+    Watch {
+        /// The graph's domain.
+        domain: u16,
+        /// Why.
+        message: String,
+    },
     /// The caller's liveness check failed while the feed played (e.g. a node died).
     #[error("{0}")]
     Aborted(String),
@@ -100,13 +125,6 @@ pub enum Error {
 
 /// `Result` of this crate.
 pub type Result<T> = std::result::Result<T, Error>;
-
-/// A DDS domain id in `base .. base + span` from this process's id and `k`, so that parallel
-/// runs (tests, experiments) rarely share a domain. `span` 0 is taken as 1.
-pub fn private_domain(base: u16, span: u16, k: u32) -> u16 {
-    let span = u32::from(span.max(1));
-    base + (std::process::id().wrapping_mul(7).wrapping_add(k) % span) as u16
-}
 
 /// One node process.
 #[derive(Debug)]
@@ -134,13 +152,36 @@ impl Killed {
     }
 }
 
-/// The node processes of one graph on one DDS domain. Dropping it stops them all.
+/// The node processes of one graph on one leased DDS domain. Dropping it stops them all (and
+/// then gives the domain back).
 #[derive(Debug)]
 pub struct Graph {
     domain: u16,
+    /// This graph's id: its nodes get `COWORK_GRAPH_ID`, which marks their participants.
+    id: String,
     logs: PathBuf,
     cwd: Option<PathBuf>,
     procs: Vec<Proc>,
+    /// Follows the domain's participants, from the first [`check_alive`](Self::check_alive).
+    watch: Option<(cowork_ros::RosNode, cowork_ros::graph::StrangerWatch)>,
+    /// When the domain was last checked for strangers.
+    watched_at: Option<Instant>,
+    /// Strangers already warned about (`COWORK_ALLOW_STRANGERS`).
+    tolerated: Vec<String>,
+    // Last: the domain is given back only after the processes have stopped.
+    lease: DomainLease,
+}
+
+/// Wall seconds between two looks for strangers.
+const STRANGER_CHECK_PERIOD_S: f64 = 0.5;
+
+/// A fresh graph id: 12 hex digits from the process's random hasher keys, the pid and the time.
+fn new_graph_id() -> String {
+    use std::hash::{BuildHasher as _, Hasher as _};
+    let mut h = std::hash::RandomState::new().build_hasher();
+    h.write_u32(std::process::id());
+    h.write_u128(std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos()));
+    format!("{:012x}", h.finish() & 0xffff_ffff_ffff)
 }
 
 /// Seconds a node gets to stop after SIGINT before it is killed.
@@ -149,10 +190,37 @@ pub const STOP_GRACE_S: f64 = 5.0;
 pub const SIGTERM_AFTER_S: f64 = 2.0;
 
 impl Graph {
-    /// No process yet; `logs` is created.
-    pub fn new(domain: u16, logs: &Path) -> Result<Self> {
+    /// No process yet, on the domain of `lease` (held until the graph is dropped); `logs` is
+    /// created.
+    pub fn new(lease: DomainLease, logs: &Path) -> Result<Self> {
         std::fs::create_dir_all(logs).map_err(|source| Error::Log { path: logs.to_owned(), source })?;
-        Ok(Self { domain, logs: logs.to_owned(), cwd: None, procs: Vec::new() })
+        Ok(Self {
+            domain: lease.id(),
+            id: new_graph_id(),
+            logs: logs.to_owned(),
+            cwd: None,
+            procs: Vec::new(),
+            watch: None,
+            watched_at: None,
+            tolerated: Vec::new(),
+            lease,
+        })
+    }
+
+    /// [`new`](Self::new) on a freshly leased domain; `what` names the graph's owner in the
+    /// lease (`cowork domain list`).
+    pub fn leased(what: &str, logs: &Path) -> Result<Self> {
+        Self::new(DomainLease::acquire(what)?, logs)
+    }
+
+    /// This graph's id (`COWORK_GRAPH_ID` of its nodes).
+    pub fn id(&self) -> &str {
+        &self.id
+    }
+
+    /// The lease of the graph's domain.
+    pub fn lease(&self) -> &DomainLease {
+        &self.lease
     }
 
     /// Processes start in `dir` (e.g. the repository root, where the config paths are relative
@@ -221,6 +289,7 @@ impl Graph {
         let mut cmd = Command::new(program);
         cmd.args(&args)
             .env("ROS_DOMAIN_ID", self.domain.to_string())
+            .env("COWORK_GRAPH_ID", &self.id)
             .stdin(Stdio::null())
             .stdout(out)
             .stderr(err);
@@ -264,9 +333,54 @@ impl Graph {
         None
     }
 
-    /// `Err` naming the first process that exited.
+    /// `Err` naming the first process that exited, or the participants writing on the graph's
+    /// topics that it did not start ([`strangers`](Self::strangers)).
     pub fn check_alive(&mut self) -> Result<()> {
-        self.exited().map_or(Ok(()), Err)
+        if let Some(e) = self.exited() {
+            return Err(e);
+        }
+        self.check_strangers()
+    }
+
+    /// Participants on the graph's domain that it did not start (neither its nodes nor this
+    /// process's) and that write on its topics; the first call starts watching the domain.
+    pub fn strangers(&mut self) -> Result<Vec<Stranger>> {
+        if self.watch.is_none() {
+            let watch = (|| {
+                let config = cowork_ros::NodeConfig { domain_id: Some(self.domain), ..Default::default() };
+                let mut node = cowork_ros::RosNode::new(&cowork_ros::graph::graph_marker_name(&self.id), &config)?;
+                let watch = node.stranger_watch(&self.id)?;
+                anyhow::Ok((node, watch))
+            })()
+            .map_err(|e| Error::Watch { domain: self.domain, message: format!("{e:#}") })?;
+            self.watch = Some(watch);
+        }
+        let (node, watch) = self.watch.as_mut().expect("created above");
+        Ok(watch.strangers(node))
+    }
+
+    /// `Err` when [`strangers`](Self::strangers) are on the domain (looked at every
+    /// 0.5 s of wall time at most); with `COWORK_ALLOW_STRANGERS=1` each is only warned about once.
+    fn check_strangers(&mut self) -> Result<()> {
+        if self.watched_at.is_some_and(|t| t.elapsed().as_secs_f64() < STRANGER_CHECK_PERIOD_S) {
+            return Ok(());
+        }
+        self.watched_at = Some(Instant::now());
+        let strangers = self.strangers()?;
+        if strangers.is_empty() {
+            return Ok(());
+        }
+        if std::env::var("COWORK_ALLOW_STRANGERS").is_ok_and(|v| v.trim() == "1") {
+            for s in strangers {
+                let text = s.to_string();
+                if !self.tolerated.contains(&text) {
+                    tracing::warn!("DDS domain {}: {text} (allowed: COWORK_ALLOW_STRANGERS=1)", self.domain);
+                    self.tolerated.push(text);
+                }
+            }
+            return Ok(());
+        }
+        Err(Error::Strangers { domain: self.domain, strangers })
     }
 
     /// Stops one process by name (SIGINT, SIGTERM after [`SIGTERM_AFTER_S`], SIGKILL after
@@ -364,7 +478,7 @@ mod tests {
     #[test]
     fn a_process_that_dies_is_named_with_its_status_and_log() {
         let dir = tempfile::tempdir().unwrap();
-        let mut g = Graph::new(7, dir.path()).unwrap();
+        let mut g = Graph::leased("cowork_graph unit test", dir.path()).unwrap();
         g.spawn("sleeper", &sh(), &["-c", "exec sleep 30"]).unwrap();
         g.spawn("crasher", &sh(), &["-c", "echo \"domain $ROS_DOMAIN_ID\"; echo boom >&2; exit 3"]).unwrap();
         let until = Instant::now() + Duration::from_secs(10);
@@ -377,7 +491,7 @@ mod tests {
         };
         let text = err.to_string();
         assert!(text.starts_with("crasher exited"), "{text}");
-        assert!(text.contains('3') && text.contains("boom") && text.contains("domain 7"), "{text}");
+        assert!(text.contains('3') && text.contains("boom") && text.contains(&format!("domain {}", g.domain())), "{text}");
         g.stop();
         assert!(g.pids().is_empty());
     }
@@ -385,7 +499,7 @@ mod tests {
     #[test]
     fn stop_escalates_to_sigterm_then_sigkill() {
         let dir = tempfile::tempdir().unwrap();
-        let mut g = Graph::new(7, dir.path()).unwrap();
+        let mut g = Graph::leased("cowork_graph unit test", dir.path()).unwrap();
         g.spawn("stubborn", &sh(), &["-c", "trap '' INT TERM; exec sleep 60"]).unwrap();
         // Started with SIGINT ignored, as `nohup … &` from a script leaves a child.
         g.spawn("deaf", &sh(), &["-c", "trap '' INT; exec sleep 60"]).unwrap();
@@ -411,7 +525,7 @@ mod tests {
     #[test]
     fn a_node_is_killed_and_restarted_with_its_log_kept() {
         let dir = tempfile::tempdir().unwrap();
-        let mut g = Graph::new(7, dir.path()).unwrap();
+        let mut g = Graph::leased("cowork_graph unit test", dir.path()).unwrap();
         g.spawn("counter", &sh(), &["-c", "echo \"run $1\"; exec sleep 60", "sh", "A"]).unwrap();
         std::thread::sleep(Duration::from_millis(200));
         assert!(g.signal("counter", Signal::SIGSTOP) && g.signal("counter", Signal::SIGCONT));
@@ -431,16 +545,8 @@ mod tests {
     #[test]
     fn a_missing_binary_is_named() {
         let dir = tempfile::tempdir().unwrap();
-        let mut g = Graph::new(7, dir.path()).unwrap();
+        let mut g = Graph::leased("cowork_graph unit test", dir.path()).unwrap();
         let e = g.spawn::<&str>("ghost", Path::new("/no/such/bin"), &[]).unwrap_err().to_string();
         assert!(e.contains("ghost") && e.contains("/no/such/bin"), "{e}");
-    }
-
-    #[test]
-    fn private_domains_stay_in_their_range() {
-        for k in 0..500 {
-            assert!((120..220).contains(&private_domain(120, 100, k)));
-        }
-        assert_eq!(private_domain(5, 0, 9), 5);
     }
 }

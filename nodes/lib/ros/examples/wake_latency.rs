@@ -124,9 +124,9 @@ fn main() -> anyhow::Result<()> {
     let count: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(1000);
     println!("| loop | received | median µs | p99 µs | max µs | CPU (both nodes) |");
     println!("|---|---|---|---|---|---|");
-    for (k, mode) in ["sleep 2ms", "sleep 1ms", "sleep 500us", "waitset"].into_iter().enumerate() {
-        let domain = 140 + ((std::process::id() as u16 % 20) * 4 + k as u16) % 90;
-        measure(mode, domain, count)?;
+    for mode in ["sleep 2ms", "sleep 1ms", "sleep 500us", "waitset"] {
+        let lease = cowork_ros::domain::DomainLease::acquire("cowork_ros wake_latency example")?;
+        measure(mode, lease.id(), count)?;
     }
     Ok(())
 }

@@ -3,11 +3,23 @@
 //! (from `ros_discovery_info`, the `rmw_dds_common/msg/ParticipantEntitiesInfo` every ROS 2
 //! participant publishes, reliable + transient local, so a late joiner gets the current list).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result};
 use ros2_client::dds::rustdds::policy::{Durability, History, Reliability};
 use ros2_client::dds::rustdds::{GUID, QosPolicies, RTPSEntity};
+
+/// A DDS participant's GUID prefix (RustDDS does not export its type).
+type Prefix = [u8; 12];
+
+fn prefix_of(gid: Gid) -> Prefix {
+    let b = gid.to_bytes16();
+    let mut p = [0; 12];
+    p.copy_from_slice(&b[..12]);
+    p
+}
 use ros2_client::{Gid, MessageTypeName};
 use serde::{Deserialize, Serialize};
 
@@ -183,6 +195,133 @@ impl GraphWatch {
             }
         }
         map
+    }
+}
+
+/// The hidden node (`ros2 node list` hides names starting with `_`) that marks a participant as
+/// one of graph `id`'s: every node started with `COWORK_GRAPH_ID=<id>` adds it.
+pub fn graph_marker_name(id: &str) -> String {
+    format!("{GRAPH_MARKER}{id}")
+}
+
+const GRAPH_MARKER: &str = "_cowork_graph_";
+
+/// The DDS participants created by this process: its in-process nodes are its graph's.
+static OWN_PARTICIPANTS: Mutex<Vec<Prefix>> = Mutex::new(Vec::new());
+
+pub(crate) fn note_own_participant(participant: GUID) {
+    OWN_PARTICIPANTS.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(prefix_of(Gid::from(participant)));
+}
+
+fn own_participant(prefix: &Prefix) -> bool {
+    OWN_PARTICIPANTS.lock().unwrap_or_else(std::sync::PoisonError::into_inner).contains(prefix)
+}
+
+/// A DDS participant on the graph's domain that the graph does not own and that writes on one of
+/// the graph's topics (a second graph on the same domain, a node started by hand, a
+/// `ros2 topic pub`). Readers only (`ros2 topic echo`, a viewer) are not strangers.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Stranger {
+    /// Its ROS nodes (from `ros_discovery_info`), hidden markers left out; empty for a plain
+    /// DDS participant.
+    pub nodes: Vec<String>,
+    /// The cowork graph it belongs to, when it carries a graph marker.
+    pub graph: Option<String>,
+    /// The ROS topics it writes.
+    pub topics: Vec<String>,
+    /// Its GUID prefix, hex.
+    pub participant: String,
+}
+
+impl std::fmt::Display for Stranger {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.nodes.is_empty() {
+            write!(f, "a DDS participant with no ROS node ({})", self.participant)?;
+        } else {
+            write!(f, "node {}", self.nodes.join(", "))?;
+        }
+        match &self.graph {
+            Some(g) => write!(f, " of another cowork graph ({g})")?,
+            None => write!(f, " that no cowork graph started")?,
+        }
+        write!(f, " writing {}", self.topics.join(", "))
+    }
+}
+
+/// Finds [`Stranger`]s on a graph's domain: participants neither created by this process nor
+/// marked with the graph's id, seen writing graph topics for longer than a grace period (a node
+/// of the graph announces its marker a moment after its first endpoints).
+pub struct StrangerWatch {
+    watch: GraphWatch,
+    marker: String,
+    grace: Duration,
+    unowned_since: HashMap<Prefix, Instant>,
+}
+
+impl std::fmt::Debug for StrangerWatch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StrangerWatch").field("marker", &self.marker).finish_non_exhaustive()
+    }
+}
+
+/// Seconds a participant may write graph topics before its graph marker is seen.
+pub const STRANGER_GRACE_S: f64 = 5.0;
+
+impl RosNode {
+    /// Starts watching this node's domain for participants that do not belong to graph
+    /// `graph_id` (see [`StrangerWatch`]).
+    pub fn stranger_watch(&mut self, graph_id: &str) -> Result<StrangerWatch> {
+        Ok(StrangerWatch {
+            watch: self.graph_watch()?,
+            marker: format!("/{}", graph_marker_name(graph_id)),
+            grace: Duration::from_secs_f64(STRANGER_GRACE_S),
+            unowned_since: HashMap::new(),
+        })
+    }
+}
+
+impl StrangerWatch {
+    /// The strangers seen now (each unowned for longer than the grace period).
+    pub fn strangers(&mut self, node: &RosNode) -> Vec<Stranger> {
+        self.watch.take_updates();
+        let participant = node.context.domain_participant();
+        let mut writes: BTreeMap<Prefix, Vec<String>> = BTreeMap::new();
+        for w in participant.discovered_writers() {
+            let d = &w.publication_topic_data;
+            let name = &d.topic_name;
+            if !name.starts_with("rt/") || name == "rt/rosout" || name == "rt/parameter_events" {
+                continue;
+            }
+            let topics = writes.entry(prefix_of(Gid::from(d.key))).or_default();
+            let topic = ros_topic_name(name).unwrap_or_else(|| name.clone());
+            if !topics.contains(&topic) {
+                topics.push(topic);
+            }
+        }
+        let now = Instant::now();
+        let mut out = Vec::new();
+        let mut still = HashMap::new();
+        for (prefix, topics) in writes {
+            if own_participant(&prefix) {
+                continue;
+            }
+            let nodes = self.watch.participants.iter().find(|(gid, _)| prefix_of(**gid) == prefix).map(|(_, ns)| ns);
+            let names: Vec<String> = nodes.map(|ns| ns.iter().map(|n| qualified(&n.node_namespace, &n.node_name)).collect()).unwrap_or_default();
+            if names.contains(&self.marker) {
+                continue;
+            }
+            let since = *self.unowned_since.get(&prefix).unwrap_or(&now);
+            still.insert(prefix, since);
+            if now.duration_since(since) < self.grace {
+                continue;
+            }
+            let graph = names.iter().find_map(|n| n.strip_prefix('/').and_then(|n| n.strip_prefix(GRAPH_MARKER)).map(str::to_owned));
+            let nodes = names.into_iter().filter(|n| !n.starts_with(&format!("/{GRAPH_MARKER}"))).collect();
+            let participant = prefix.iter().map(|b| format!("{b:02x}")).collect();
+            out.push(Stranger { nodes, graph, topics, participant });
+        }
+        self.unowned_since = still;
+        out
     }
 }
 

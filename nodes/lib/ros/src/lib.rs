@@ -9,6 +9,7 @@
 //! - [`params::load`], the loader of ROS 2-shaped YAML parameter files;
 //! - [`graph`]: the nodes of the domain and a topic's publishers / subscriptions with their QoS
 //!   (`cowork node list`, `cowork topic info`);
+//! - [`domain`]: DDS domains leased per machine, so two graphs never share one;
 //! - [`config`]: the bundled `config/` directory from any working directory;
 //! - [`security`]: DDS Security (SROS2 keystores, `ROS_SECURITY_*`) for every node;
 //! - [`shutdown`], Ctrl-C / SIGTERM handling for a clean stop;
@@ -30,6 +31,7 @@
 
 pub mod config;
 pub mod dds_threads;
+pub mod domain;
 pub mod graph;
 pub mod input;
 mod joints;

@@ -7,7 +7,7 @@ use anyhow::{Context as _, Result, bail};
 use cowork_msgs::RosMessage;
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::rosgraph_msgs::Clock;
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::dds::rustdds::{DomainParticipantBuilder, RTPSEntity as _};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, QosProfile,
 };
@@ -46,11 +46,15 @@ pub struct RosNode {
     // Field order matters: the participant stops counting as alive first, then the node
     // drops before its context.
     _live: crate::dds_threads::Live,
+    /// The `_cowork_graph_<id>` node that marks this participant as its graph's.
+    _graph_marker: Option<Node>,
     pub(crate) node: Node,
     pub(crate) context: Context,
     name: String,
     /// Checked by [`validate_namespace`].
     namespace: String,
+    /// The shared hold on the domain's members lock ([`crate::domain`]), released last.
+    _membership: Option<crate::domain::Membership>,
     /// Latest `/clock` time, ns; negative until the first tick when `use_sim_time`.
     sim_time_ns: Option<Arc<AtomicI64>>,
     /// The `/clock` follower and its stop flag (raised and joined on drop).
@@ -88,6 +92,21 @@ pub fn domain_id_from_env() -> Result<u16> {
             Ok(id)
         }
     }
+}
+
+/// The graph this process's nodes belong to: `COWORK_GRAPH_ID` (set by `cowork_graph` for
+/// the nodes it starts), when it is a valid name token.
+fn graph_id_from_env() -> Option<String> {
+    let id = std::env::var("COWORK_GRAPH_ID").ok()?;
+    let id = id.trim();
+    if id.is_empty() {
+        return None;
+    }
+    if !id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+        tracing::warn!("COWORK_GRAPH_ID={id:?} is not a name token (letters, digits, _); ignored");
+        return None;
+    }
+    Some(id.to_owned())
 }
 
 /// The discovery range asked for in the environment: `Some(true)` every interface
@@ -185,6 +204,7 @@ fn new_context(domain: u16, namespace: &str, name: &str) -> Result<Context> {
             }
         },
     };
+    crate::graph::note_own_participant(participant.guid());
     Context::from_domain_participant(participant)
         .with_context(|| format!("cannot create a ROS 2 context on DDS domain {domain}"))
 }
@@ -250,7 +270,19 @@ impl RosNode {
             Some(d) => d,
             None => domain_id_from_env()?,
         };
+        let membership = crate::domain::join(domain);
         let context = new_context(domain, &config.namespace, name)?;
+        let graph_marker = match graph_id_from_env() {
+            Some(id) => Some(
+                context
+                    .new_node(
+                        NodeName::new("/", &crate::graph::graph_marker_name(&id)).map_err(|e| anyhow::anyhow!("invalid COWORK_GRAPH_ID {id:?}: {e:?}"))?,
+                        NodeOptions::new().enable_rosout(false).start_parameter_services(false),
+                    )
+                    .context("cannot create the graph marker node")?,
+            ),
+            None => None,
+        };
         let node_name = NodeName::new(&config.namespace, name)
             .map_err(|e| anyhow::anyhow!("invalid node name {name:?} in {:?}: {e:?}", config.namespace))?;
         let mut node = context
@@ -273,10 +305,12 @@ impl RosNode {
             .context("cannot start the spinner thread")?;
         let mut this = Self {
             _live: crate::dds_threads::Live::counted(),
+            _graph_marker: graph_marker,
             node,
             context,
             name: name.to_owned(),
             namespace: config.namespace.clone(),
+            _membership: membership,
             sim_time_ns: None,
             clock: None,
         };

@@ -15,7 +15,7 @@ const ROLE: &str = "COWORK_JAM_TEST_ROLE";
 const TOPIC: &str = "/jam_test";
 
 fn domain() -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(11).wrapping_add(3) % 120)
+    cowork_ros::domain::test_domain("cowork_ros publisher jam test")
 }
 
 /// Child: a reliable reader that reports `READY`, then counts for `secs` s and prints `GOT n`.

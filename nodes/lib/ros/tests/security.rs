@@ -21,8 +21,8 @@ const TOPIC: &str = "/secure_chatter";
 
 /// A domain of this test process's own; `test` tells the tests of one process apart, as they
 /// run side by side and one's handshakes must not slow the other's.
-fn private_domain(test: u16) -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(7).wrapping_add(11).wrapping_add(test * 60) % 120)
+fn private_domain() -> u16 {
+    cowork_ros::domain::test_domain("cowork_ros security test")
 }
 
 /// Runs this binary's `child` test as `role` with `env` (and no inherited `ROS_SECURITY_*`).
@@ -168,7 +168,7 @@ fn enforce_refuses_to_start_without_usable_credentials_permissive_runs() {
     create_keystore(&ks).expect("keystore");
     create_enclave(&ks, "node", None).expect("enclave");
     let ks_s = ks.to_str().unwrap();
-    let domain = private_domain(0);
+    let domain = private_domain();
     let run = |env: Vec<(&str, &str)>| {
         let o = child_cmd("start", domain, &env).output().expect("child");
         (o.status.code(), text(&o))
@@ -226,7 +226,7 @@ fn secured_nodes_talk_and_peers_without_our_credentials_get_nothing_through() {
     create_keystore(&rogue_ks).expect("keystore");
     create_enclave(&rogue_ks, "talker", None).expect("enclave");
     let (ks_s, rogue_s) = (ks.to_str().unwrap(), rogue_ks.to_str().unwrap());
-    let domain = private_domain(1);
+    let domain = private_domain();
     let listener = child_cmd("listen", domain, &secured(ks_s, "Enforce", "/listener")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("listener");
     let talker = child_cmd("talk:talker", domain, &secured(ks_s, "Enforce", "/talker")).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("talker");
     let stranger = child_cmd("talk:stranger", domain, &[]).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("stranger");

@@ -18,7 +18,7 @@ const ROLE: &str = "COWORK_STOP_CONTINUE_CHILD";
 const TOPIC: &str = "/stop_continue_test";
 
 fn domain() -> u16 {
-    100 + ((std::process::id() as u16).wrapping_mul(13).wrapping_add(7) % 120)
+    cowork_ros::domain::test_domain("cowork_ros stop/continue test")
 }
 
 /// The child's command line: the test harness's own arguments, which it ignores.

@@ -336,7 +336,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             break;
         }
         let seed = args.seed + u64::from(k);
-        let t = kitchen_trial(args, kitchen, &scene, seed, k)?;
+        let t = kitchen_trial(args, kitchen, &scene, seed)?;
         println!(
             "{} seed {seed}: {} — teaching {:.1} s, {}; {}; tilt over the cup {}; {:.0} s wall{}",
             args.name,
@@ -657,7 +657,7 @@ fn behaviour_of(subtask: &str) -> Option<String> {
     })
 }
 
-fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: u64, k: u32) -> Result<KitchenTrial> {
+fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: u64) -> Result<KitchenTrial> {
     let wall0 = Instant::now();
     let dir = args.logs.join(format!("{}-{seed}", args.name));
     let _ = std::fs::remove_dir_all(&dir);
@@ -685,7 +685,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         bin_dir: args.bin_dir.clone(),
         logs: dir.join("teach"),
         startup_timeout_s: args.startup_timeout,
-        domain: cowork_graph::private_domain(120, 100, 2 * k),
+        domain: cowork_graph::DomainLease::acquire(&format!("cowork experiment {} teaching", args.name))?,
         arms: Vec::new(),
     };
     let taught = teach(&setup)?;
@@ -766,10 +766,10 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         let ltm = |p: &Path| cowork_supervisor::Ltm::load(p).with_context(|| format!("the LTM {}", p.display()));
         let learned = learned_between(&ltm(&setup.ltm)?, &ltm(Path::new(LEARNED_IN_COFFEE.0))?);
         let knowledge = Knowledge { ltm: Path::new(LEARNED_IN_COFFEE.0), database_dir: &database_dir, learned: &learned };
-        execute(args, kitchen, &knowledge, &scene_path, &dir, k, &mut trial)?;
+        execute(args, kitchen, &knowledge, &scene_path, &dir, &mut trial)?;
     } else {
         let knowledge = Knowledge { ltm: &setup.ltm_out, database_dir: &setup.database_dir, learned: &taught.learned };
-        execute(args, kitchen, &knowledge, &scene_path, &dir, k, &mut trial)?;
+        execute(args, kitchen, &knowledge, &scene_path, &dir, &mut trial)?;
     }
     trial.wall_s = wall0.elapsed().as_secs_f64();
     Ok(trial)
@@ -907,8 +907,9 @@ struct Knowledge<'a> {
 }
 
 #[allow(clippy::too_many_arguments)]
-fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, scene: &Path, dir: &Path, k: u32, trial: &mut KitchenTrial) -> Result<()> {
-    let domain = cowork_graph::private_domain(120, 100, 2 * k + 1);
+fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, scene: &Path, dir: &Path, trial: &mut KitchenTrial) -> Result<()> {
+    let lease = cowork_graph::DomainLease::acquire(&format!("cowork experiment {} seed {}", args.name, trial.seed))?;
+    let domain = lease.id();
     let limit_s = args.time_limit.unwrap_or(kitchen.limit_s);
     let wall_limit = args.startup_timeout + 4.0 * limit_s / args.rate + 60.0;
     let dur = format!("{wall_limit:.0}");
@@ -940,7 +941,7 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
         settle_until: None,
         fault: args.fault.clone().map(|spec| FaultRun::new(spec, args.fault_at, args.fault_down)),
     };
-    let mut g = Graph::new(domain, &dir.join("exec"))?;
+    let mut g = Graph::new(lease, &dir.join("exec"))?;
     let bin = |b: &str| args.bin_dir.join(b);
     if let Some(rec) = &args.record {
         std::fs::create_dir_all(rec).with_context(|| format!("creating {}", rec.display()))?;
