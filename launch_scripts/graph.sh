@@ -28,6 +28,7 @@
 # Logs go to DIR/<node>.log (default: out/logs). Ctrl-C (or SIGTERM) stops every node cleanly.
 # Nodes run from target/release; build first with `cargo build --release --bins`.
 set -euo pipefail
+self="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"  # to run again under a domain lease
 cd "$(dirname "$0")/.."
 all_args=("$@")
 domain=${ROS_DOMAIN_ID:-0}
@@ -83,7 +84,7 @@ done
 if [[ -z ${COWORK_DOMAIN_HELD:-} ]]; then
   lease=(--domain "$domain")
   [[ $domain == auto ]] && lease=()
-  exec "$bin/cowork" domain run "${lease[@]}" --what "launch_scripts/graph.sh (pid $$)" -- "$0" "${all_args[@]}"
+  exec "$bin/cowork" domain run "${lease[@]}" --what "launch_scripts/graph.sh" -- "$self" "${all_args[@]}"
 fi
 echo "graph on ROS_DOMAIN_ID=$ROS_DOMAIN_ID (talk to it with: ROS_DOMAIN_ID=$ROS_DOMAIN_ID cowork topic list)"
 mkdir -p "$logs"

@@ -12,12 +12,13 @@
 # Needs the release binaries (cargo build --release --bins). ROS_DOMAIN_ID: yours, else a free one
 # (`cowork domain run`: no other graph on this machine has it while the walkthrough runs).
 set -euo pipefail
+self="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"  # to run again under a domain lease
 cd "$(dirname "$0")/.."
 
 cw=target/release/cowork
 [[ -x $cw ]] || { echo "walkthrough.sh: $cw missing; run: cargo build --release --bins" >&2; exit 1; }
 
-[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$cw" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "launch_scripts/walkthrough.sh" -- "$0" "$@"
+[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$cw" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "launch_scripts/walkthrough.sh" -- "$self" "$@"
 logs=out/demo/graph/logs
 # A fresh teaching state: what an earlier run taught (out/) must not change what the demo shows.
 rm -rf out/demo/graph

@@ -9,6 +9,7 @@
 # RECORD_EXTRA="/fded/distances /tf" records more topics (for nodes/robot_manager/scripts/damper_census.py).
 # TEACH_DIR is what teach_from_bag.sh left (default out/teach-pour). Needs the release binaries.
 set -euo pipefail
+self="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"  # to run again under a domain lease
 cd "$(dirname "$0")/../../.."
 teach=${1:-out/teach-pour}
 bx=${2:-0.50}
@@ -24,7 +25,7 @@ rm -rf "$out"
 mkdir -p "$out"
 cp -r "$teach/primitives" "$out/primitives"
 # A DDS domain no other graph on this machine has (yours if ROS_DOMAIN_ID is set), held until the end.
-[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$bin/cowork" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "execute_pour.sh" -- "$0" "$@"
+[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$bin/cowork" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "execute_pour.sh" -- "$self" "$@"
 # The bottle somewhere it never was while taught (same height, upright).
 sed "s/name: bottle, \(.*\)pose: { position: \[0.45, 0.35, 0.11\] }/name: bottle, \1pose: { position: [$bx, $by, 0.11] }/" \
   config/scenes/kitchen.yaml > "$out/scene.yaml"

@@ -10,6 +10,7 @@
 # (cargo build --release -p lwr_sim -p robot_manager -p attentional_supervisor -p cowork).
 # Leaves OUT_DIR/primitives/lwr.primitives.json, OUT_DIR/learned.schema and OUT_DIR/*.log.
 set -euo pipefail
+self="$(cd "$(dirname "$0")" && pwd)/$(basename "$0")"  # to run again under a domain lease
 cd "$(dirname "$0")/../../.."
 bag=${1:-bags/kinesthetic-pour.mcap}
 out=${2:-out/teach-pour}
@@ -21,7 +22,7 @@ done
 rm -rf "$out"
 mkdir -p "$out"
 # A DDS domain no other graph on this machine has (yours if ROS_DOMAIN_ID is set), held until the end.
-[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$bin/cowork" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "teach_from_bag.sh" -- "$0" "$@"
+[[ -n ${COWORK_DOMAIN_HELD:-} ]] || exec "$bin/cowork" domain run ${ROS_DOMAIN_ID:+--domain "$ROS_DOMAIN_ID"} --what "teach_from_bag.sh" -- "$self" "$@"
 # No depth camera: nothing here reads it, and rendering would load the machine.
 sed 's/^      enabled: true/      enabled: false/' config/lwr_sim.yaml > "$out/lwr_sim.yaml"
 pids=()

@@ -353,7 +353,11 @@ pub fn node_list(wait: f64) -> Result<()> {
     while Instant::now() < deadline && !cowork_ros::shutdown::requested() {
         std::thread::sleep(Duration::from_millis(50));
     }
-    let mut names: Vec<String> = watch.nodes().into_iter().map(|n| n.name).filter(|n| *n != format!("/{own}")).collect();
+    // Hidden nodes (a name starting with `_`, e.g. a graph's `_cowork_graph_<id>` marker) are
+    // left out, as `ros2 node list` does.
+    let hidden = |n: &str| n.rsplit('/').next().is_some_and(|last| last.starts_with('_'));
+    let mut names: Vec<String> =
+        watch.nodes().into_iter().map(|n| n.name).filter(|n| *n != format!("/{own}") && !hidden(n)).collect();
     names.dedup();
     for n in names {
         println!("{n}");
