@@ -611,8 +611,12 @@ fn run_trial(
             failure = Some("interrupted (Ctrl-C)".into());
             break;
         }
-        if let Some(e) = graph.exited() {
-            failure = Some(format!("node died: {e}"));
+        // A node that died, or a stranger writing on the graph's domain, ends the trial.
+        if let Err(e) = graph.check_alive() {
+            failure = Some(match e {
+                cowork_graph::Error::Exited { .. } => format!("node died: {e}"),
+                e => e.to_string(),
+            });
             break;
         }
         let now = node.now().to_secs_f64();

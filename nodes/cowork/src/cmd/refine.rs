@@ -450,8 +450,11 @@ impl Io {
     /// Drains the subscriptions, feeds the controller's other inputs every 10 ms of simulated
     /// time; fails when a node died.
     pub(super) fn pump(&mut self, graph: &mut Graph) -> Result<f64> {
-        if let Some(e) = graph.exited() {
-            bail!("node died: {e}");
+        // A node that died, or a stranger writing on the graph's domain, ends the trial.
+        match graph.check_alive() {
+            Ok(()) => {}
+            Err(e @ cowork_graph::Error::Exited { .. }) => bail!("node died: {e}"),
+            Err(e) => bail!("{e}"),
         }
         if shutdown::requested() {
             bail!("interrupted (Ctrl-C)");
