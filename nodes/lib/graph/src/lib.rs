@@ -345,17 +345,17 @@ impl Graph {
     /// Participants on the graph's domain that it did not start (neither its nodes nor this
     /// process's) and that write on its topics; the first call starts watching the domain.
     pub fn strangers(&mut self) -> Result<Vec<Stranger>> {
-        if self.watch.is_none() {
-            let watch = (|| {
-                let config = cowork_ros::NodeConfig { domain_id: Some(self.domain), ..Default::default() };
-                let mut node = cowork_ros::RosNode::new(&cowork_ros::graph::graph_marker_name(&self.id), &config)?;
-                let watch = node.stranger_watch(&self.id)?;
-                anyhow::Ok((node, watch))
-            })()
-            .map_err(|e| Error::Watch { domain: self.domain, message: format!("{e:#}") })?;
-            self.watch = Some(watch);
-        }
-        let (node, watch) = self.watch.as_mut().expect("created above");
+        let (node, watch) = match &mut self.watch {
+            Some(w) => w,
+            None => {
+                let domain = self.domain;
+                let config = cowork_ros::NodeConfig { domain_id: Some(domain), ..Default::default() };
+                let created = cowork_ros::RosNode::new(&cowork_ros::graph::graph_marker_name(&self.id), &config)
+                    .and_then(|mut node| node.stranger_watch(&self.id).map(|watch| (node, watch)))
+                    .map_err(|e| Error::Watch { domain, message: format!("{e:#}") })?;
+                self.watch.insert(created)
+            }
+        };
         Ok(watch.strangers(node))
     }
 
