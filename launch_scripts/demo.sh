@@ -24,7 +24,12 @@ while [[ $# -gt 0 ]]; do
 done
 
 echo "== building release binaries (first time: a few minutes)"
-cargo build --release --locked --bins 2>&1 | tail -n 1
+# cargo's own progress bar on a terminal; its last line otherwise.
+if [[ -t 2 ]]; then
+  cargo build --release --locked --bins
+else
+  cargo build --release --locked --bins 2>&1 | tail -n 1
+fi
 
 cw=target/release/cowork
 out=out/demo
@@ -35,7 +40,9 @@ start=$(date +%s.%N)
 echo "== the product's job: a demonstration becomes a task, and the robot carries it out"
 echo "   (cowork experiment coffee: teach prepareCoffee by demonstration, then the whole graph"
 echo "    prepares it with the bottle and the coffee jar where they never were; half real time)"
-$cw experiment coffee --trials 1 --seed 1 --rate 0.5 --json "$out/coffee.json" --logs "$out/logs" --report "$out/report" 2>&1 | sed 's/^/  /'
+# Straight to the terminal, so its progress lines (teaching, then execution) are drawn.
+status=0
+$cw experiment coffee --trials 1 --seed 1 --rate 0.5 --json "$out/coffee.json" --logs "$out/logs" --report "$out/report" || status=$?
 end=$(date +%s.%N)
 
 # Wall time from the start of the demo (after the build) to the supervisor's first action of the
@@ -60,6 +67,10 @@ echo "== done in $(python3 -c "print('%.1f' % ($end - $start))") s wall; first e
 echo "   JSON: $out/coffee.json   node logs: $out/logs/coffee-1/{teach,exec}/"
 echo "   taught once for the live graph: launch_scripts/teach.sh; then launch_scripts/graph.sh --execute prepareCoffee"
 
+if [[ $status -ne 0 ]]; then
+  echo "demo.sh: cowork experiment coffee exited with status $status" >&2
+  exit "$status"
+fi
 if [[ -n $walkthrough ]]; then
   launch_scripts/walkthrough.sh
 fi

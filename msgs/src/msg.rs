@@ -254,6 +254,20 @@ ros_message!(
     }
 );
 
+impl MotionStatus {
+    /// The name of a `STATE_*` value for logs: `running`, `converged`, `aborted`, `held`
+    /// (`state 7` for a value outside them).
+    pub fn state_name(state: u8) -> std::borrow::Cow<'static, str> {
+        match state {
+            Self::STATE_RUNNING => "running".into(),
+            Self::STATE_CONVERGED => "converged".into(),
+            Self::STATE_ABORTED => "aborted".into(),
+            Self::STATE_HELD => "held".into(),
+            other => format!("state {other}").into(),
+        }
+    }
+}
+
 /// An action started or finished by `robot_manager` (thesis Sec. 4.3.1, 5.2.1).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ActionEvent {

@@ -319,6 +319,26 @@ mod tests {
         }
     }
 
+    /// The README's "Topics and QoS" table is one table (no blank line splits it, which renders
+    /// the rest as text) and lists every topic defined here, with its type.
+    #[test]
+    fn the_readme_topic_table_lists_every_topic_in_one_table() {
+        let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md")).expect("README.md");
+        let section = readme.split("## Topics and QoS").nth(1).expect("a Topics and QoS section");
+        let section = section.split("\n## ").next().unwrap_or(section);
+        let lines: Vec<&str> = section.lines().collect();
+        let first = lines.iter().position(|l| l.starts_with("| topic |")).expect("the table header");
+        let rows: Vec<&str> = lines[first..].iter().copied().take_while(|l| l.starts_with('|')).collect();
+        let after = lines[first + rows.len()..].iter().find(|l| !l.trim().is_empty());
+        assert!(!after.is_some_and(|l| l.starts_with('|')), "a blank line splits the topic table before {after:?}");
+        for (name, ty, _) in all() {
+            let short = ty.replace("/msg/", "/");
+            let row = rows.iter().find(|r| r.starts_with(&format!("| `{name}` |")));
+            let row = row.unwrap_or_else(|| panic!("README topic table: no row for {name}"));
+            assert!(row.contains(&short), "README topic table: {name} is not shown as {short}: {row}");
+        }
+    }
+
     #[test]
     fn per_arm_topics_resolve_in_the_arms_namespace() {
         assert_eq!(JOINT_STATES.name_in("/"), "/joint_states");

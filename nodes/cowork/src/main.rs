@@ -94,7 +94,8 @@ enum BenchCommand {
 
 fn main() -> std::process::ExitCode {
     cowork_ros::init_logging();
-    let cli = Cli::parse();
+    // `config/...` paths name the bundled config directory from anywhere (cowork_ros::config).
+    let cli = Cli::parse_from(cowork_ros::config::resolve_args(std::env::args_os()));
     if let Command::Domain(c) = cli.command {
         // `domain run` exits with its command's status.
         return cmd::domain::run(c).unwrap_or_else(|e| {
@@ -102,8 +103,38 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::FAILURE
         });
     }
+    if prints_for_a_pipe(&cli.command) {
+        die_quietly_on_a_closed_pipe();
+    }
     // One line `error: ...` with the context chain; a backtrace only with RUST_BACKTRACE=1.
     cowork_ros::exit_code(run(cli.command))
+}
+
+/// Commands whose output is read through pipes (`cowork robot fk … | head -1`): they end
+/// quietly when the reader goes, as `ls` or `ros2 topic echo` do. Not the long-running ones
+/// that hold a graph, sockets or children (experiment, teach, bridge, bag record/play), which
+/// must never be killed by a signal meant for a printout.
+fn prints_for_a_pipe(command: &Command) -> bool {
+    use cmd::bag::BagCommand;
+    !matches!(
+        command,
+        Command::Experiment(_)
+            | Command::Teach(_)
+            | Command::Bridge(_)
+            | Command::Bag(BagCommand::Record(_) | BagCommand::Play(_))
+            | Command::Domain(_)
+    )
+}
+
+/// Rust ignores SIGPIPE, so `println!` to a closed pipe panics (exit 101 and a panic message);
+/// the default action ends the process silently instead, as every Unix tool does.
+#[allow(unsafe_code)]
+fn die_quietly_on_a_closed_pipe() {
+    use nix::sys::signal::{SigHandler, Signal, signal};
+    // SAFETY: SIG_DFL installs no handler code; called before any thread is started.
+    if let Err(e) = unsafe { signal(Signal::SIGPIPE, SigHandler::SigDfl) } {
+        tracing::debug!("SIGPIPE left ignored: {e}");
+    }
 }
 
 fn run(command: Command) -> Result<()> {

@@ -540,6 +540,9 @@ pub struct DsNode {
     rt: RtInputs,
     /// Node time `/ds_controller/ttc` was last published while blending; `None` at T¹.
     ttc_published: Option<f64>,
+    /// The label of the last motion command logged, and how many commands with the same label
+    /// (a streamed primitive's goals) came after it unlogged.
+    logged_label: (String, u32),
 }
 
 impl DsNode {
@@ -560,6 +563,7 @@ impl DsNode {
             status: StatusTracker::new(params.status_rate_hz),
             rt: RtInputs::default(),
             ttc_published: None,
+            logged_label: (String::new(), 0),
         }
     }
 
@@ -699,15 +703,28 @@ impl DsNode {
     pub fn on_command(&mut self, m: &MotionCommandMsg, now: f64, out: &mut Outputs) {
         match self.adapter.command(m) {
             Ok((c, model)) => {
-                out.notes.push(format!(
-                    "motion command {} {:?} → ({:.3}, {:.3}, {:.3}) {}",
-                    c.id,
-                    c.primitive,
-                    c.goal.x,
-                    c.goal.y,
-                    c.goal.z,
-                    quote(&m.label)
-                ));
+                // A streamed primitive sends a goal every few hundred ms under one label: the
+                // first is logged, the rest counted in the next line logged.
+                let (label, streamed) = &mut self.logged_label;
+                if *label == m.label && !m.label.is_empty() {
+                    *streamed += 1;
+                } else {
+                    let after = match *streamed {
+                        0 => String::new(),
+                        n => format!(" (after {n} more goal(s) streamed for {})", quote(label)),
+                    };
+                    out.notes.push(format!(
+                        "motion command {}: {} → ({:.3}, {:.3}, {:.3}) m {}{after}",
+                        c.id,
+                        c.primitive,
+                        c.goal.x,
+                        c.goal.y,
+                        c.goal.z,
+                        quote(&m.label)
+                    ));
+                    m.label.clone_into(label);
+                    *streamed = 0;
+                }
                 self.status.command_accepted();
                 out.model = model.map(|model| (c.id, Box::new(model)));
                 self.rt.command = c;
@@ -795,7 +812,7 @@ impl DsNode {
             if changed {
                 // The log says what held the link back (the status only names the link).
                 let detail = o.approach_limited.filter(|_| s.reason.starts_with("approach limited")).map(|l| self.limited_detail(l)).unwrap_or_default();
-                out.notes.push(format!("status: command {} state {} {}{detail}", s.command_id, s.state, s.reason));
+                out.notes.push(format!("status: command {} {} {}{detail}", s.command_id, MotionStatus::state_name(s.state), s.reason));
             }
             out.statuses.push(s);
         }

@@ -30,7 +30,7 @@ pub struct SynthArgs {
     #[arg(long)]
     pub no_depth: bool,
     /// The config folder (robot URDF, scenes, lwr_sim.yaml).
-    #[arg(long, default_value = "config")]
+    #[arg(long, default_value = "config", value_parser = cowork_ros::config::path_arg)]
     pub config_dir: PathBuf,
     /// Kinesthetic scenarios: a teacher drawn from the seed (pace, path, grasp) instead of the
     /// bundled one.

@@ -24,7 +24,7 @@ use nalgebra::{Point3, Vector3};
 #[derive(Debug, clap::Args)]
 pub struct BenchControlArgs {
     /// Robot description.
-    #[arg(long, default_value = "config/robot/lwr4plus.urdf")]
+    #[arg(long, default_value = "config/robot/lwr4plus.urdf", value_parser = cowork_ros::config::path_arg)]
     pub urdf: PathBuf,
     /// Measured steps per case (after 1 000 warm-up steps).
     #[arg(long, default_value_t = 10_000)]

@@ -316,8 +316,7 @@ fn run_bag(a: RunArgs) -> Result<()> {
         joints_topic: &a.joints_topic,
         scene_pose: scene_pose(a.scene.as_deref())?,
     };
-    let file = std::fs::File::create(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    let mut csv = csv::Writer::from_writer(std::io::BufWriter::new(file));
+    let mut csv = super::output::csv(&a.out)?;
     csv.write_record([
         "stamp", "link", "distance", "robot_x", "robot_y", "robot_z", "obstacle_x", "obstacle_y", "obstacle_z", "normal_x",
         "normal_y", "normal_z", "time_us",
@@ -371,11 +370,11 @@ fn run_bag(a: RunArgs) -> Result<()> {
         Ok(true)
     })?;
     bar.finish_and_clear();
-    csv.flush().with_context(|| format!("writing {}", a.out.display()))?;
     skipped.report();
     if frames == 0 {
         bail!("{}: no usable depth frame on {} (need camera info, joint state and a camera pose)", a.bag.display(), a.depth_topic);
     }
+    super::output::commit_csv(csv).with_context(|| format!("writing {}", a.out.display()))?;
     let t = TimeStats::of(&mut times);
     eprintln!(
         "{frames} frames → {}; time per frame median {:.3} ms, p90 {:.3} ms",

@@ -47,7 +47,7 @@ pub struct ObserveArgs {
     #[arg(long)]
     gestures: Option<String>,
     /// The node's parameter file (same parameters as the node).
-    #[arg(long, default_value = "config/human_observer.yaml")]
+    #[arg(long, default_value = "config/human_observer.yaml", value_parser = cowork_ros::config::path_arg)]
     params: PathBuf,
     /// Robot description (overrides `urdf`).
     #[arg(long)]
@@ -211,8 +211,7 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
         Some(p) => {
             let q0 = cowork_robot::JointVector::from_row_slice(&[0.0, 0.5, 0.0, -1.2, 0.0, 0.6, 0.0]);
             let r = cowork_observer::Retargeter::new(model.clone(), cowork_observer::RetargetConfig::default(), q0)?;
-            let f = std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
-            let mut w = csv::Writer::from_writer(std::io::BufWriter::new(f));
+            let mut w = super::output::csv(p)?;
             let mut header = vec!["stamp_s".to_owned(), "person_id".to_owned()];
             header.extend((1..=7).map(|i| format!("q{i}")));
             header.extend(["elbow_x", "elbow_y", "elbow_z", "wrist_x", "wrist_y", "wrist_z", "residual_m"].map(String::from));
@@ -224,10 +223,7 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
     let base_frame = params.observer.base_frame.clone();
     let mut node = ObserverNode::new(model, params, gestures)?;
     let reader = BagReader::open(&a.bag).with_context(|| format!("opening bag {}", a.bag.display()))?;
-    let create = |p: &Path| -> Result<csv::Writer<std::io::BufWriter<std::fs::File>>> {
-        let f = std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?;
-        Ok(csv::Writer::from_writer(std::io::BufWriter::new(f)))
-    };
+    let create = |p: &Path| super::output::csv(p);
     let mut gestures_csv = create(&a.output)?;
     gestures_csv.write_record(["stamp_s", "person_id", "label", "confidence", "dtw_distance"])?;
     let mut state_csv = a.state_csv.as_deref().map(create).transpose()?;
@@ -242,7 +238,7 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
     let mut scored = Stream::default();
     let mut reports = Vec::new();
     let (mut first, mut last) = (f64::INFINITY, f64::NEG_INFINITY);
-    let write_state = |node: &ObserverNode, w: &mut Option<csv::Writer<std::io::BufWriter<std::fs::File>>>| -> Result<()> {
+    let write_state = |node: &ObserverNode, w: &mut Option<csv::Writer<super::output::Output>>| -> Result<()> {
         if let (Some(w), Some(s)) = (w.as_mut(), node.last_state()) {
             w.write_record([
                 format!("{:.6}", s.stamp),
@@ -337,12 +333,12 @@ pub fn observe(a: ObserveArgs) -> Result<()> {
         }
     }
     bar.finish_and_clear();
-    gestures_csv.flush()?;
-    if let Some(w) = state_csv.as_mut() {
-        w.flush()?;
+    super::output::commit_csv(gestures_csv).with_context(|| format!("writing {}", a.output.display()))?;
+    if let Some(w) = state_csv {
+        super::output::commit_csv(w).context("writing the state CSV")?;
     }
-    if let Some((_, w, _)) = retarget.as_mut() {
-        w.flush()?;
+    if let Some((_, w, _)) = retarget {
+        super::output::commit_csv(w).context("writing the retargeting CSV")?;
     }
     println!("{}: {frames} skeleton frames, {} states, {gestures} gestures, {warnings} warnings", a.bag.display(), node.states());
     if !scored.labels.is_empty()

@@ -248,7 +248,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             bail!("{} missing; build with: cargo build --release --bins -p {bin}", p.display());
         }
     }
-    let scene = Scene::from_file(Path::new("config/scenes/pizza.yaml")).context("config/scenes/pizza.yaml (run from the repository root)")?;
+    let scene = Scene::from_file(&cowork_ros::config::resolve("config/scenes/pizza.yaml")).context("config/scenes/pizza.yaml (run from the repository root)")?;
     shutdown::install();
     let dir = args.logs.join(format!("pizza-{mode}-{}", args.seed));
     let _ = std::fs::remove_dir_all(&dir);
@@ -292,7 +292,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(d)?;
             }
-            std::fs::write(path, serde_json::to_string_pretty(&run)? + "\n").with_context(|| format!("writing {}", path.display()))?;
+            crate::cmd::output::write(path, serde_json::to_string_pretty(&run)? + "\n")?;
         }
     }
     let run = summarise(mode, &teaching, trials);
@@ -305,7 +305,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
 fn teach_both_arms(args: &ExperimentArgs, dir: &Path) -> Result<(PizzaTeaching, PathBuf, PathBuf)> {
     let wall = Instant::now();
     let database_dir = dir.join("primitives");
-    let mut ltm = PathBuf::from("config/tasks/pizza.schema");
+    let mut ltm = cowork_ros::config::resolve("config/tasks/pizza.schema");
     let mut teaching = PizzaTeaching::default();
     for (arm, scenario) in [("left", Scenario::PizzaDemoLeft), ("right", Scenario::PizzaDemoRight)] {
         let bag = dir.join(format!("{}.mcap", scenario.name()));
@@ -319,8 +319,8 @@ fn teach_both_arms(args: &ExperimentArgs, dir: &Path) -> Result<(PizzaTeaching, 
             ltm: ltm.clone(),
             ltm_out: ltm_out.clone(),
             database_dir: database_dir.clone(),
-            scene: PathBuf::from("config").join("scenes").join(scenario.scene_file()),
-            sim_params: PathBuf::from("config/lwr_sim.yaml"),
+            scene: cowork_ros::config::resolve("config").join("scenes").join(scenario.scene_file()),
+            sim_params: cowork_ros::config::resolve("config/lwr_sim.yaml"),
             rate: 4.0,
             bin_dir: args.bin_dir.clone(),
             logs: dir.join(format!("teach-{arm}")),
@@ -661,8 +661,8 @@ fn execute_trial(args: &ExperimentArgs, scene: &Scene, ltm: &Path, database_dir:
     let trial_dir = dir.join(format!("seed-{seed}"));
     std::fs::create_dir_all(&trial_dir).with_context(|| format!("creating {}", trial_dir.display()))?;
     let scene_path = trial_dir.join("pizza.yaml");
-    std::fs::write(&scene_path, serde_yaml_ng::to_string(&exec_scene)?).with_context(|| format!("writing {}", scene_path.display()))?;
-    let model = RobotModel::from_urdf_file("config/robot/lwr4plus.urdf").context("config/robot/lwr4plus.urdf")?;
+    crate::cmd::output::write(&scene_path, serde_yaml_ng::to_string(&exec_scene)?)?;
+    let model = RobotModel::from_urdf_file(cowork_ros::config::resolve("config/robot/lwr4plus.urdf")).context("config/robot/lwr4plus.urdf")?;
     let lease = cowork_graph::DomainLease::acquire(&format!("cowork experiment pizza seed {seed}"))?;
     let domain = lease.id();
     let limit_s = args.time_limit.unwrap_or(900.0);

@@ -52,7 +52,7 @@ pub struct DbArgs {
     #[arg(long)]
     robot: Option<String>,
     /// robot_manager parameter file.
-    #[arg(long, default_value = "config/robot_manager.yaml")]
+    #[arg(long, default_value = "config/robot_manager.yaml", value_parser = cowork_ros::config::path_arg)]
     params: PathBuf,
 }
 
@@ -63,7 +63,7 @@ pub struct LearnArgs {
     #[arg(long)]
     bag: PathBuf,
     /// Config directory (robot, scenes, lwr_sim.yaml).
-    #[arg(long, default_value = "config")]
+    #[arg(long, default_value = "config", value_parser = cowork_ros::config::path_arg)]
     config: PathBuf,
     /// Scene file inside `<config>/scenes`.
     #[arg(long, default_value = "kitchen.yaml")]
@@ -343,6 +343,16 @@ fn learn(a: &LearnArgs) -> Result<()> {
     for l in &log {
         println!("{l}");
     }
+    if manager.learned().is_empty() {
+        let said: Vec<&str> = speech.iter().map(|(_, w)| w.as_str()).collect();
+        bail!(
+            "{}: no demonstration in this bag, nothing learned: a demonstration is the arm moved between \
+             `teach` and `done` on /speech_command (this bag has {} speech command(s){})",
+            a.bag.display(),
+            said.len(),
+            if said.is_empty() { String::new() } else { format!(": {}", said.join(", ")) }
+        );
+    }
     println!("\n{:<3} {:<15} {:<8} {:<7} {:>7} {:>7} {:>8} {:>8} {:>8} {:>8}", "#", "label", "kind", "object", "start_s", "end_s", "rms_mm", "max_mm", "rms_deg", "max_deg");
     let mut rows = Vec::new();
     for (i, (seg, p)) in manager.learned().iter().enumerate() {
@@ -372,7 +382,7 @@ fn learn(a: &LearnArgs) -> Result<()> {
     }
     if let Some(j) = &a.json {
         let doc = serde_json::json!({ "bag": name, "segments": rows, "log": log });
-        std::fs::write(j, serde_json::to_string_pretty(&doc)? + "\n").with_context(|| format!("cannot write {}", j.display()))?;
+        crate::cmd::output::write(j, serde_json::to_string_pretty(&doc)? + "\n")?;
     }
     if a.save {
         if let Some(dir) = path.parent() {
@@ -411,7 +421,7 @@ fn export(dir: &Path, learned: &[(cowork_manager::Segment, Primitive)]) -> Resul
         let _ = writeln!(meta, "{{\"label\": \"{}\", \"n_basis\": {}, \"stiffness\": {}, \"damping\": {}, \"duration\": {}}}", p.label, d.basis.centers.len(), d.stiffness, d.damping, d.duration);
         for (name, text) in [("demo.csv", demo), ("ours.csv", ours), ("json", meta)] {
             let f = dir.join(format!("{}.{name}", p.id));
-            std::fs::write(&f, text).with_context(|| format!("cannot write {}", f.display()))?;
+            crate::cmd::output::write(&f, text)?;
         }
     }
     Ok(())

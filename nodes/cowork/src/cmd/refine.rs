@@ -259,10 +259,7 @@ pub(super) fn prepare(args: &ExperimentArgs) -> Result<(RobotModel, TtcConfig)> 
     if args.refinements == 0 {
         bail!("--refinements must be at least 1");
     }
-    let root = PathBuf::from(".");
-    if !root.join("config/robot/lwr4plus.urdf").is_file() {
-        bail!("run from the repository root (config/robot/lwr4plus.urdf not found)");
-    }
+    let root = crate::cmd::config_root()?;
     for bin in ["lwr_sim", "ds_controller"] {
         let p = args.bin_dir.join(bin);
         if !p.is_file() {
@@ -299,7 +296,7 @@ fn ds_params(args: &ExperimentArgs, dir: &Path) -> Result<PathBuf> {
         .with_context(|| format!("{}: no ds_controller.ros__parameters.controller.ttc", src.display()))?;
     ttc.insert("switch_force".into(), f.into());
     let out = dir.join("ds_controller.yaml");
-    std::fs::write(&out, serde_yaml_ng::to_string(&v)?).with_context(|| format!("writing {}", out.display()))?;
+    crate::cmd::output::write(&out, serde_yaml_ng::to_string(&v)?)?;
     Ok(out)
 }
 
@@ -332,7 +329,7 @@ pub(super) fn write_json(path: &Path, run: &impl Serialize) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
-    std::fs::write(path, serde_json::to_string_pretty(run)? + "\n").with_context(|| format!("writing {}", path.display()))
+    crate::cmd::output::write(path, serde_json::to_string_pretty(run)? + "\n")
 }
 
 pub(super) fn opt_mm(v: Option<f64>) -> String {
@@ -377,7 +374,7 @@ fn sim_params(dir: &Path) -> Result<PathBuf> {
         .with_context(|| format!("{}: no lwr_sim.ros__parameters.depth.enabled", src.display()))?;
     *depth = serde_yaml_ng::Value::Bool(false);
     let out = dir.join("lwr_sim.yaml");
-    std::fs::write(&out, serde_yaml_ng::to_string(&v)?).with_context(|| format!("writing {}", out.display()))?;
+    crate::cmd::output::write(&out, serde_yaml_ng::to_string(&v)?)?;
     Ok(out)
 }
 

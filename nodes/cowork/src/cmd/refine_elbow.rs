@@ -364,7 +364,7 @@ fn write_report(dir: &std::path::Path, trials: &[ElbowTrial], insert_force: f64)
         }
     }
     let path = dir.join("index.html");
-    std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))
+    crate::cmd::output::write(&path, html)
 }
 
 fn print_trial(t: &ElbowTrial) {

@@ -21,7 +21,7 @@ pub enum RobotCommand {
         #[arg(long)]
         link: Option<String>,
         /// Robot description.
-        #[arg(long, default_value = "config/robot/lwr4plus.urdf")]
+        #[arg(long, default_value = "config/robot/lwr4plus.urdf", value_parser = cowork_ros::config::path_arg)]
         urdf: PathBuf,
     },
 }

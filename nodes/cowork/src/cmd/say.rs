@@ -7,8 +7,10 @@ use clap::Args;
 use cowork_msgs::std_msgs::String as RosString;
 use cowork_ros::{NodeConfig, RosNode};
 
-/// Speech vocabulary of the graph (thesis Sec. 5.2.3); `human <subtask>` takes any subtask.
-pub const VOCABULARY: &[&str] = &["teach", "done", "stop", "repeat", "gripper open", "gripper close", "human <subtask>"];
+/// Speech vocabulary of the graph (thesis Sec. 5.2.3); `human <subtask>` takes any subtask;
+/// `ARM: <words>` addresses one arm of a two-arm graph (`left: teach`).
+pub const VOCABULARY: &[&str] =
+    &["teach", "done", "stop", "repeat", "gripper open", "gripper close", "human <subtask>", "<arm>: <any of these>"];
 
 /// Arguments of `cowork say`.
 #[derive(Debug, Args)]
@@ -24,9 +26,13 @@ pub struct SayArgs {
     force: bool,
 }
 
-/// Whether `phrase` is in the speech vocabulary.
+/// Whether `phrase` is in the speech vocabulary, addressed to one arm or not.
 pub fn is_known(phrase: &str) -> bool {
     let p = phrase.trim();
+    let p = match p.split_once(':') {
+        Some((arm, words)) if cowork_ros::is_name_token(arm.trim()) => words.trim(),
+        _ => p,
+    };
     matches!(p, "teach" | "done" | "stop" | "repeat" | "gripper open" | "gripper close")
         || p.strip_prefix("human ").is_some_and(|s| !s.trim().is_empty())
 }
@@ -60,10 +66,10 @@ mod tests {
 
     #[test]
     fn vocabulary() {
-        for p in ["teach", "done", "stop", "repeat", "gripper open", "gripper close", "human add(water)"] {
+        for p in ["teach", "done", "stop", "repeat", "gripper open", "gripper close", "human add(water)", "left: teach", "right:gripper close", "left: human add(water)"] {
             assert!(is_known(p), "{p}");
         }
-        for p in ["", "human", "human  ", "go", "gripper"] {
+        for p in ["", "human", "human  ", "go", "gripper", "left:", "left: go", "two arms: teach"] {
             assert!(!is_known(p), "{p}");
         }
     }

@@ -1,7 +1,6 @@
 //! `cowork scenario NAME [--key value ...]`: the DS controller's simulated experiments (thesis
 //! Fig. 5.3–5.7, Sec. 5.1.3) on the simulated clock, printed as a JSON summary.
 
-use std::io::BufWriter;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
@@ -21,7 +20,7 @@ Also: --csv OUT (trajectory), --csv-every N (rows every N steps, default 10), \
 --sweep FROM:TO:STEP (moving-sphere-*: obstacle speeds along +y, with the other options; prints the first failing speed).")]
 pub struct ScenarioArgs {
     /// Robot description.
-    #[arg(long, default_value = "config/robot/lwr4plus.urdf")]
+    #[arg(long, default_value = "config/robot/lwr4plus.urdf", value_parser = cowork_ros::config::path_arg)]
     pub urdf: PathBuf,
     /// Scenario name.
     pub name: String,
@@ -90,10 +89,9 @@ pub fn run(args: ScenarioArgs) -> Result<()> {
     let setup = build(&model, &args.name, &Options::new(&args.name, pairs))?;
     let summary = match &csv {
         Some(path) => {
-            let file = std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-            let mut w = BufWriter::new(file);
+            let mut w = super::output::Output::create(path)?;
             let s = run_scenario(&model, setup, Some((&mut w, csv_every)))?;
-            std::io::Write::flush(&mut w).with_context(|| format!("cannot write {}", path.display()))?;
+            w.commit()?;
             s
         }
         None => run_scenario(&model, setup, None)?,

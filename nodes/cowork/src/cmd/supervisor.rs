@@ -1,8 +1,7 @@
 //! `cowork supervisor ...`: the attentional supervisor without ROS — run it on a timed event
 //! script and log every decision, or show its working memory tree.
 
-use std::fs::File;
-use std::io::{BufWriter, Write as _};
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 
@@ -157,8 +156,7 @@ fn run_script(
     if let Some(e) = snap_err {
         return Err(e).context("serialising a WM snapshot");
     }
-    let file = File::create(output).with_context(|| format!("cannot create {}", output.display()))?;
-    let mut out = BufWriter::new(file);
+    let mut out = super::output::Output::create(output)?;
     let mut snaps = snapshots.iter().peekable();
     for r in &report.records {
         while let Some((tick, line)) = snaps.peek() {
@@ -174,7 +172,7 @@ fn run_script(
     for (_, line) in snaps {
         writeln!(out, "{line}")?;
     }
-    out.flush().with_context(|| format!("writing {}", output.display()))?;
+    out.commit().with_context(|| format!("writing {}", output.display()))?;
 
     let count = |f: fn(&Decision) -> bool| report.records.iter().filter(|r| f(&r.decision)).count();
     println!("ticks:              {} at {} Hz ({:.2} s)", report.ticks, rate, report.ticks as f64 / rate);

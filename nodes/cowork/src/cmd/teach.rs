@@ -43,20 +43,20 @@ pub struct TeachArgs {
     #[arg(long)]
     pub database_dir: PathBuf,
     /// The LTM taught from (the kitchen schemas, or an LTM learned before).
-    #[arg(long, default_value = "config/tasks/kitchen.schema")]
+    #[arg(long, default_value = "config/tasks/kitchen.schema", value_parser = cowork_ros::config::path_arg)]
     pub ltm: PathBuf,
     /// Scene of the teaching (must be the scene the demonstrations were made in).
-    #[arg(long, default_value = "config/scenes/kitchen.yaml")]
+    #[arg(long, default_value = "config/scenes/kitchen.yaml", value_parser = cowork_ros::config::path_arg)]
     pub scene: PathBuf,
     /// lwr_sim's parameter file (its depth camera is switched off for teaching).
-    #[arg(long, default_value = "config/lwr_sim.yaml")]
+    #[arg(long, default_value = "config/lwr_sim.yaml", value_parser = cowork_ros::config::path_arg)]
     pub sim_params: PathBuf,
     /// Simulated seconds per wall-clock second (the teacher's wrenches act at their stamps at
     /// any rate; a feed that falls behind holds the simulated clock).
     #[arg(long, default_value_t = 4.0)]
     pub rate: f64,
     /// Directory of the node binaries.
-    #[arg(long, default_value = "target/release")]
+    #[arg(long, default_value = "target/release", value_parser = crate::cmd::bin_dir_arg)]
     pub bin_dir: PathBuf,
     /// Node logs go here.
     #[arg(long, default_value = "out/teach/logs")]
@@ -270,7 +270,7 @@ fn sim_params_without_camera(params: &Path, out: &Path) -> Result<()> {
         .and_then(serde_yaml_ng::Value::as_mapping_mut)
         .with_context(|| format!("{}: no lwr_sim.ros__parameters.depth block", params.display()))?;
     depth.insert("enabled".into(), false.into());
-    std::fs::write(out, serde_yaml_ng::to_string(&doc)?).with_context(|| format!("writing {}", out.display()))
+    crate::cmd::output::write(out, serde_yaml_ng::to_string(&doc)?)
 }
 
 /// Runs the teaching graph, replays the demonstrations, stops the graph and reads back what
@@ -450,7 +450,14 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
     // The manager's /robot_stream stamp: how far it has processed the world (simulated s).
     // Per arm, the newest /robot_stream stamp; the slowest manager paces the teacher.
     let mut stamps: Vec<Option<f64>> = vec![None; robots.len()];
+    let bar = crate::cmd::observe::spinner("teaching: replaying the demonstration(s)");
+    let mut shown = Instant::now();
     let mut collect = |g: &mut Graph, segments: &mut Vec<Segment>, last_wm: &mut Option<WorkingMemory>| -> Result<Option<f64>, String> {
+        if shown.elapsed() >= Duration::from_millis(250) {
+            shown = Instant::now();
+            let sim = node.now().to_secs_f64() - t0;
+            bar.set_message(format!("{:.1} of {feed_s:.1} s simulated, {} segment(s)", sim.max(0.0), segments.len()));
+        }
         let mut any = false;
         for (k, (arm, robot)) in robots.iter().enumerate() {
             while let Some(r) = robot.take() {
@@ -493,6 +500,7 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         }
         std::thread::sleep(Duration::from_millis(10));
     }
+    bar.finish_and_clear();
     let wall_s = wall.elapsed().as_secs_f64();
     let warnings: Vec<String> = managers
         .iter()

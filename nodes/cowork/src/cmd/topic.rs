@@ -60,14 +60,17 @@ pub enum TopicCommand {
         #[arg(long, default_value_t = 2.0)]
         wait: f64,
     },
-    /// Publish a message given as JSON; fields left out keep their ROS defaults.
+    /// Publish a message given as YAML or JSON (as `ros2 topic pub` takes it: '{data: close}' or
+    /// '{"data": "close"}'); fields left out keep their ROS defaults, a field the type does not
+    /// have is refused. Prints each message sent.
     Pub {
         /// Topic name, e.g. /lwr/gripper_command.
         topic: String,
         /// Message type, e.g. std_msgs/msg/String.
         #[arg(value_name = "TYPE")]
         type_name: String,
-        /// The message as JSON, e.g. '{"data": "close"}'.
+        /// The message, e.g. '{data: close}' or '{"data": "close"}'.
+        #[arg(value_name = "VALUES")]
         json: String,
         /// Publish this many times (default: once).
         #[arg(long, default_value_t = 1)]
@@ -87,7 +90,11 @@ pub fn run(cmd: TopicCommand) -> Result<()> {
     match cmd {
         TopicCommand::List { wait } => {
             let node = RosNode::new(&format!("cowork_topic_{}", std::process::id()), &NodeConfig::default())?;
-            for t in discover(&node, wait, |_| false)? {
+            let topics = discover(&node, wait, |_| false)?;
+            if topics.is_empty() {
+                eprintln!("no topics seen on DDS domain {} within {wait} s", cowork_ros::domain_id_from_env().unwrap_or_default());
+            }
+            for t in topics {
                 println!("{} [{}]", t.name, t.type_name);
             }
             Ok(())
@@ -117,14 +124,27 @@ pub fn run(cmd: TopicCommand) -> Result<()> {
             if !(wait.is_finite() && wait >= 0.0) {
                 bail!("--wait {wait}: must be a non-negative number of seconds");
             }
-            let value: serde_json::Value = serde_json::from_str(&json)
-                .with_context(|| format!("the message for {topic} is not valid JSON: {json}"))?;
-            let mut node = RosNode::new(&format!("cowork_pub_{}", std::process::id()), &NodeConfig::default())?;
+            let value = parse_values(&json).with_context(|| format!("the message for {topic}"))?;
             let period = cowork_ros::duration_s(1.0 / rate);
-            with_message_type!(type_name.as_str(), T => publish::<T>(&mut node, &topic, value, count, period, wait))
+            let publish = Publish { topic: &topic, count, period, wait };
+            with_message_type!(type_name.as_str(), T => publish.run(message::<T>(value)?))
                 .with_context(|| format!("{type_name} is not a type cowork knows (see `cowork topic list`)"))?
         }
     }
+}
+
+/// The message text as `ros2 topic pub` takes it: YAML (of which JSON is a subset), e.g.
+/// `{data: close}`, `{"data": "close"}` or `data: close`; empty means all defaults.
+fn parse_values(text: &str) -> Result<serde_json::Value> {
+    if text.trim().is_empty() {
+        return Ok(serde_json::Value::Object(Default::default()));
+    }
+    let value: serde_json::Value =
+        serde_yaml_ng::from_str(text).with_context(|| format!("not valid YAML or JSON: {text}"))?;
+    if !value.is_object() {
+        bail!("expected a mapping of field names to values, e.g. '{{data: close}}'; got: {text}");
+    }
+    Ok(value)
 }
 
 /// Overlays `patch` on `base`, object by object.
@@ -144,37 +164,76 @@ fn merge(base: &mut serde_json::Value, patch: serde_json::Value) {
     }
 }
 
-fn publish<T: RosMessage>(
-    node: &mut RosNode,
-    topic: &str,
-    patch: serde_json::Value,
+/// The first field of `given` that `known` (the message as it was decoded) does not have, as a
+/// path (`goal.positon`, `nodes[2].nme`), with the fields that level has.
+fn unknown_field(given: &serde_json::Value, known: &serde_json::Value, at: &str) -> Option<(String, Vec<String>)> {
+    use serde_json::Value;
+    match (given, known) {
+        (Value::Object(g), Value::Object(k)) => g.iter().find_map(|(name, v)| {
+            let path = if at.is_empty() { name.clone() } else { format!("{at}.{name}") };
+            match k.get(name) {
+                Some(kv) => unknown_field(v, kv, &path),
+                None => Some((path, k.keys().cloned().collect())),
+            }
+        }),
+        (Value::Array(g), Value::Array(k)) => {
+            g.iter().zip(k).enumerate().find_map(|(i, (gv, kv))| unknown_field(gv, kv, &format!("{at}[{i}]")))
+        }
+        _ => None,
+    }
+}
+
+/// The message of type `T` that `patch` describes over `T`'s defaults; a field `T` does not
+/// have, or a value of the wrong kind, is an error naming the field and the type.
+fn message<T: RosMessage>(patch: serde_json::Value) -> Result<T> {
+    let mut value = serde_json::to_value(T::default())?;
+    merge(&mut value, patch.clone());
+    let msg: T = serde_json::from_value(value)
+        .with_context(|| format!("the values do not fit {} (its fields, defaults: {})", T::type_name(), serde_json::to_string(&T::default()).unwrap_or_default()))?;
+    if let Some((field, known)) = unknown_field(&patch, &serde_json::to_value(&msg)?, "") {
+        bail!("{} has no field `{field}` (fields there: {})", T::type_name(), known.join(", "));
+    }
+    Ok(msg)
+}
+
+/// How `cowork topic pub` publishes.
+struct Publish<'a> {
+    topic: &'a str,
     count: usize,
     period: Duration,
+    /// s to wait for a subscriber.
     wait: f64,
-) -> Result<()> {
-    let mut value = serde_json::to_value(T::default())?;
-    merge(&mut value, patch);
-    let msg: T = serde_json::from_value(value)
-        .with_context(|| format!("the JSON does not fit {} (fields: {})", T::type_name(), serde_json::to_string(&T::default()).unwrap_or_default()))?;
-    let publisher = node.publisher::<T>(topic, &qos::reliable())?;
-    let deadline = Instant::now() + cowork_ros::duration_s(wait);
-    while publisher.subscription_count(node) == 0 && Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let mut next = Instant::now();
-    for _ in 0..count {
-        if cowork_ros::shutdown::requested() {
-            break;
+}
+
+impl Publish<'_> {
+    fn run<T: RosMessage>(&self, msg: T) -> Result<()> {
+        let topic = self.topic;
+        let mut node = RosNode::new(&format!("cowork_pub_{}", std::process::id()), &NodeConfig::default())?;
+        let publisher = node.publisher::<T>(topic, &qos::reliable())?;
+        let deadline = Instant::now() + cowork_ros::duration_s(self.wait);
+        while publisher.subscription_count(&node) == 0 && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
         }
-        publisher.publish(msg.clone())?;
-        next += period;
-        if let Some(d) = next.checked_duration_since(Instant::now()) {
-            std::thread::sleep(d);
+        if publisher.subscription_count(&node) == 0 {
+            eprintln!("no subscriber on {topic} after {} s; publishing anyway", self.wait);
         }
+        let text = serde_json::to_string(&msg)?;
+        let mut next = Instant::now();
+        for i in 1..=self.count {
+            if cowork_ros::shutdown::requested() {
+                break;
+            }
+            publisher.publish(msg.clone())?;
+            println!("publishing #{i} on {topic} [{}]: {text}", T::type_name());
+            next += self.period;
+            if let Some(d) = next.checked_duration_since(Instant::now()) {
+                std::thread::sleep(d);
+            }
+        }
+        // Let reliable delivery finish before the participant leaves.
+        std::thread::sleep(Duration::from_millis(200));
+        Ok(())
     }
-    // Let reliable delivery finish before the participant leaves.
-    std::thread::sleep(Duration::from_millis(200));
-    Ok(())
 }
 
 fn discover(node: &RosNode, wait: f64, done: impl Fn(&[TopicInfo]) -> bool) -> Result<Vec<TopicInfo>> {
@@ -359,6 +418,9 @@ pub fn node_list(wait: f64) -> Result<()> {
     let mut names: Vec<String> =
         watch.nodes().into_iter().map(|n| n.name).filter(|n| *n != format!("/{own}") && !hidden(n)).collect();
     names.dedup();
+    if names.is_empty() {
+        eprintln!("no nodes seen on DDS domain {} within {wait} s", cowork_ros::domain_id_from_env().unwrap_or_default());
+    }
     for n in names {
         println!("{n}");
     }
@@ -368,6 +430,30 @@ pub fn node_list(wait: f64) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ros2_yaml_and_json_give_the_same_message() {
+        let yaml = message::<cowork_msgs::std_msgs::String>(parse_values("{data: close}").expect("yaml")).expect("msg");
+        let json = message::<cowork_msgs::std_msgs::String>(parse_values(r#"{"data": "close"}"#).expect("json")).expect("msg");
+        assert_eq!(yaml.data, "close");
+        assert_eq!(yaml, json);
+        assert!(parse_values("[1, 2]").is_err() && parse_values("{data: [}").is_err());
+    }
+
+    #[test]
+    fn a_misspelt_field_is_refused_naming_it_and_the_type() {
+        use cowork_msgs::msg::MotionCommand;
+        let e = message::<MotionCommand>(parse_values(r#"{"goal":{"positon":{"x":0.5}},"nominal_speed":0.3}"#).expect("json"))
+            .expect_err("positon");
+        let text = e.to_string();
+        assert!(text.contains("`goal.positon`") && text.contains("MotionCommand") && text.contains("position"), "{text}");
+        let e = message::<MotionCommand>(parse_values("{nominal_sped: 0.3}").expect("yaml")).expect_err("sped");
+        assert!(e.to_string().contains("`nominal_sped`"), "{e}");
+        let ok = message::<MotionCommand>(parse_values("{goal: {position: {x: 0.5}}, nominal_speed: 0.3}").expect("yaml")).expect("ok");
+        assert_eq!((ok.goal.position.x, ok.nominal_speed), (0.5, 0.3));
+        let e = message::<MotionCommand>(parse_values("{nominal_speed: fast}").expect("yaml")).expect_err("kind");
+        assert!(format!("{e:#}").contains("MotionCommand"), "{e:#}");
+    }
 
     #[test]
     fn rate_of_evenly_spaced_arrivals() {

@@ -30,6 +30,19 @@ pub enum BagError {
         /// What is wrong (no storage file, several of them, an unreadable metadata.yaml).
         reason: String,
     },
+    /// A rosbag2 bag in a storage format other than MCAP (the default `sqlite3` of `ros2 bag
+    /// record` before Iron): named, with how to convert it.
+    #[error(
+        "{}: {storage} storage is not supported, only MCAP (convert it: `ros2 bag convert -i BAG -o out.yaml` \
+         with `storage_id: mcap`, or record with `ros2 bag record -s mcap`)",
+        path.display()
+    )]
+    UnsupportedStorage {
+        /// The bag file or directory.
+        path: PathBuf,
+        /// The storage it uses, e.g. `sqlite3`.
+        storage: String,
+    },
     /// The file does not start with the MCAP magic bytes.
     #[error("{}: not an MCAP file (no MCAP magic at byte offset 0)", path.display())]
     NotMcap {

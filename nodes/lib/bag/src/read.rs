@@ -166,11 +166,20 @@ pub fn storage_file(path: &Path) -> Result<PathBuf> {
         return Ok(path.to_path_buf());
     }
     let bad = |reason: String| BagError::BagDirectory { path: path.to_path_buf(), reason };
+    let sqlite = || BagError::UnsupportedStorage { path: path.to_path_buf(), storage: "sqlite3".into() };
     let metadata = path.join("metadata.yaml");
     let mut files: Vec<PathBuf> = if metadata.is_file() {
         let text = std::fs::read_to_string(&metadata).map_err(|e| bad(format!("metadata.yaml: {e}")))?;
         let yaml: serde_yaml_ng::Value =
             serde_yaml_ng::from_str(&text).map_err(|e| bad(format!("metadata.yaml: {e}")))?;
+        let storage = yaml
+            .get("rosbag2_bagfile_information")
+            .and_then(|i| i.get("storage_identifier"))
+            .and_then(|s| s.as_str())
+            .unwrap_or("mcap");
+        if storage != "mcap" {
+            return Err(BagError::UnsupportedStorage { path: path.to_path_buf(), storage: storage.to_owned() });
+        }
         yaml.get("rosbag2_bagfile_information")
             .and_then(|i| i.get("relative_file_paths"))
             .and_then(|p| p.as_sequence())
@@ -186,6 +195,10 @@ pub fn storage_file(path: &Path) -> Result<PathBuf> {
             .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
             .collect();
         files.sort();
+        let db3 = std::fs::read_dir(path).into_iter().flatten().flatten().any(|e| e.path().extension().is_some_and(|x| x == "db3"));
+        if files.is_empty() && db3 {
+            return Err(sqlite());
+        }
     }
     match files.as_slice() {
         [one] => Ok(one.clone()),
@@ -336,6 +349,9 @@ impl BagReader {
             path: path.clone(),
             source,
         })?;
+        if data.starts_with(b"SQLite format 3\0") {
+            return Err(BagError::UnsupportedStorage { path, storage: "sqlite3".into() });
+        }
         if data.len() < MAGIC_LEN || &data[..MAGIC_LEN] != mcap::MAGIC {
             return Err(BagError::NotMcap { path });
         }

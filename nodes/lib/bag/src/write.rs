@@ -1,8 +1,9 @@
 //! [`BagWriter`]: MCAP files with the ROS 2 profile.
 
 use std::collections::{BTreeMap, HashMap};
-use std::fs::File;
 use std::io::BufWriter;
+
+use cowork_store::AtomicFile;
 use std::path::{Path, PathBuf};
 
 use cowork_msgs::{RosMessage, to_cdr_into};
@@ -41,11 +42,16 @@ pub struct WriteSummary {
 /// the full definition text, message encoding `cdr` (with the 4-byte encapsulation header),
 /// zstd-compressed chunks, and a summary section with statistics and indexes.
 ///
-/// Call [`finish`](Self::finish) when done and check its result: dropping the writer without it
-/// also writes the summary, but any error there would be lost.
+/// The bag appears at its path only when [`finish`](Self::finish) succeeds (written beside it
+/// as a temporary, then renamed: [`cowork_store::AtomicFile`]); a writer dropped without it
+/// removes its temporary and leaves an existing file at the path untouched, so a command that
+/// fails never destroys or half-writes a bag. A process killed mid-recording leaves the
+/// temporary ([`partial_path`](Self::partial_path)), readable up to its last closed chunk.
 pub struct BagWriter {
     path: PathBuf,
-    inner: mcap::Writer<BufWriter<File>>,
+    /// Where the bytes are until `finish`.
+    partial: PathBuf,
+    inner: mcap::Writer<BufWriter<AtomicFile>>,
     channels: Vec<ChannelEntry>,
     by_topic: HashMap<String, usize>,
     buffer: Vec<u8>,
@@ -75,13 +81,14 @@ impl std::fmt::Debug for BagWriter {
 }
 
 impl BagWriter {
-    /// Creates (or truncates) the bag at `path`.
+    /// Starts the bag at `path` (which it replaces, whole, on [`finish`](Self::finish)).
     pub fn create(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
-        let file = File::create(&path).map_err(|source| BagError::Io {
+        let file = AtomicFile::create(&path).map_err(|source| BagError::Io {
             path: path.clone(),
             source,
         })?;
+        let partial = file.partial_path().to_path_buf();
         let inner = mcap::WriteOptions::new()
             .profile("ros2")
             .library(concat!("cowork_bag/", env!("CARGO_PKG_VERSION")))
@@ -93,6 +100,7 @@ impl BagWriter {
             })?;
         Ok(Self {
             path,
+            partial,
             inner,
             channels: Vec::new(),
             by_topic: HashMap::new(),
@@ -141,9 +149,15 @@ impl BagWriter {
         self.flushes
     }
 
-    /// The bag's path.
+    /// The bag's path (written by [`finish`](Self::finish)).
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Where the bag's bytes are until [`finish`](Self::finish) moves them to
+    /// [`path`](Self::path): what a killed recorder leaves behind.
+    pub fn partial_path(&self) -> &Path {
+        &self.partial
     }
 
     /// Registers `topic` carrying `T` (schema once per type, channel once per topic) and
@@ -285,24 +299,16 @@ impl BagWriter {
         Ok(())
     }
 
-    /// Writes the last chunk, the summary section and the footer, and flushes the file.
+    /// Writes the last chunk, the summary section and the footer, syncs the file and moves it
+    /// to its path.
     pub fn finish(mut self) -> Result<WriteSummary> {
         self.inner
             .finish()
             .map_err(|source| self.write_error(source))?;
         let path = self.path.clone();
-        let mut file = self.inner.into_inner();
-        std::io::Write::flush(&mut file).map_err(|source| BagError::Io {
-            path: path.clone(),
-            source,
-        })?;
-        file.into_inner()
-            .map_err(|e| BagError::Io {
-                path: path.clone(),
-                source: e.into_error(),
-            })?
-            .sync_all()
-            .map_err(|source| BagError::Io { path, source })?;
+        let io = |source| BagError::Io { path: path.clone(), source };
+        let file = self.inner.into_inner();
+        file.into_inner().map_err(|e| io(e.into_error()))?.commit().map_err(io)?;
         Ok(WriteSummary {
             message_count: self.message_count,
             channel_count: self.channels.len(),

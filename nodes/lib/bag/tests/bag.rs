@@ -363,6 +363,22 @@ fn corrupt_chunk_is_reported_and_reading_goes_on() -> TestResult {
         BagReader::open(dir.path().join("missing.mcap")),
         Err(BagError::Io { .. })
     ));
+
+    // A rosbag2 directory in sqlite3 storage (`ros2 bag record` before Iron), with and without
+    // its metadata.yaml, and the .db3 file itself: named as such, not "not an MCAP file".
+    let db = dir.path().join("run_sqlite");
+    std::fs::create_dir(&db)?;
+    std::fs::write(db.join("run_sqlite_0.db3"), b"SQLite format 3\0 and pages")?;
+    for target in [db.clone(), db.join("run_sqlite_0.db3")] {
+        let e = BagReader::open(&target).expect_err("sqlite3");
+        assert!(e.to_string().contains("sqlite3 storage is not supported"), "{e}");
+    }
+    std::fs::write(
+        db.join("metadata.yaml"),
+        "rosbag2_bagfile_information:\n  version: 5\n  storage_identifier: sqlite3\n  relative_file_paths: [run_sqlite_0.db3]\n",
+    )?;
+    let e = BagReader::open(&db).expect_err("sqlite3");
+    assert!(matches!(&e, BagError::UnsupportedStorage { storage, .. } if storage == "sqlite3"), "{e}");
     Ok(())
 }
 
@@ -595,6 +611,29 @@ fn rosbag2_directories_open_their_storage_file() {
     assert!(split.to_string().contains("2 storage files (run_0.mcap, run_1.mcap)"), "{split}");
 }
 
+/// A writer that fails (dropped without `finish`) leaves the bag that was at its path as it
+/// was, and a new path uncreated: a failed command never destroys or half-writes a bag.
+#[test]
+fn a_writer_dropped_without_finish_leaves_the_old_bag_untouched() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let path = dir.path().join("run.mcap");
+    let mut w = BagWriter::create(&path)?;
+    let ch = w.add_channel::<JointState>("/joint_states")?;
+    w.write(ch, 1, 1, &JointState::default())?;
+    w.finish()?;
+    let before = std::fs::read(&path)?;
+    let mut w = BagWriter::create(&path)?;
+    let ch = w.add_channel::<JointState>("/other")?;
+    w.write(ch, 2, 2, &JointState::default())?;
+    drop(w);
+    assert_eq!(std::fs::read(&path)?, before, "the old bag is untouched");
+    assert_eq!(std::fs::read_dir(dir.path())?.count(), 1, "no temporary left");
+    let fresh = dir.path().join("fresh.mcap");
+    drop(BagWriter::create(&fresh)?);
+    assert!(!fresh.exists());
+    Ok(())
+}
+
 /// A recorder killed mid-recording (`kill -9`: the writer never finishes, its buffered bytes
 /// never reach the file; here the writer is leaked) loses at most the open chunk, which the
 /// time bound keeps within [`cowork_bag::DEFAULT_CHUNK_SPAN_S`] of log time; by size alone a
@@ -603,7 +642,7 @@ fn rosbag2_directories_open_their_storage_file() {
 fn a_writer_killed_mid_recording_loses_at_most_the_last_second() -> TestResult {
     let dir = tempfile::tempdir()?;
     let n = 5_500u64; // 5.5 s of 1 kHz joint states
-    let write_then_die = |path: &Path, span: Option<f64>| -> anyhow::Result<u64> {
+    let write_then_die = |path: &Path, span: Option<f64>| -> anyhow::Result<(u64, std::path::PathBuf)> {
         let mut w = BagWriter::create(path)?;
         w.set_chunk_span(span)?;
         let ch = w.add_channel::<JointState>("/joint_states")?;
@@ -618,21 +657,23 @@ fn a_writer_killed_mid_recording_loses_at_most_the_last_second() -> TestResult {
             w.write(ch, t, t, &msg)?;
         }
         let flushes = w.flushes();
+        let partial = w.partial_path().to_path_buf();
         std::mem::forget(w);
-        Ok(flushes)
+        assert!(!path.exists(), "an unfinished bag never appears at its path");
+        Ok((flushes, partial))
     };
     let read = |path: &Path| -> u64 {
         BagReader::open_recoverable(path).map_or(0, |r| r.messages().filter(Result::is_ok).count() as u64)
     };
     let bounded = dir.path().join("bounded.mcap");
-    let flushes = write_then_die(&bounded, Some(cowork_bag::DEFAULT_CHUNK_SPAN_S))?;
-    let kept = read(&bounded);
+    let (flushes, partial) = write_then_die(&bounded, Some(cowork_bag::DEFAULT_CHUNK_SPAN_S))?;
+    let kept = read(&partial);
     eprintln!("1 s chunks: {flushes} flushes, {kept} of {n} messages recovered after the kill");
     assert!(flushes >= 5, "{flushes}");
     assert!(n - kept <= 1_001, "lost {} of {n} messages (more than 1 s at 1 kHz)", n - kept);
     let unbounded = dir.path().join("by_size.mcap");
-    write_then_die(&unbounded, None)?;
-    let kept_by_size = read(&unbounded);
+    let (_, partial) = write_then_die(&unbounded, None)?;
+    let kept_by_size = read(&partial);
     eprintln!("chunks by size only: {kept_by_size} of {n} messages recovered after the kill");
     assert!(kept_by_size < kept, "{kept_by_size} vs {kept}");
     let mut w = BagWriter::create(dir.path().join("bad.mcap"))?;

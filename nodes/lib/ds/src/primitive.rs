@@ -133,6 +133,20 @@ pub enum Primitive {
     Joints(JointMove),
 }
 
+/// For logs: `linear DS (gain 2 1/s)`, `constant-speed DS (0.1 m/s)`, `hold`, `learned
+/// primitive`, `joint move (gain 1 1/s, ≤ 0.5 rad/s)`.
+impl std::fmt::Display for Primitive {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Primitive::Linear(l) => write!(f, "linear DS (gain {} 1/s)", l.gain),
+            Primitive::ConstantSpeed(c) => write!(f, "constant-speed DS ({} m/s)", c.speed),
+            Primitive::Hold => f.write_str("hold"),
+            Primitive::Learned => f.write_str("learned primitive"),
+            Primitive::Joints(j) => write!(f, "joint move (gain {} 1/s, ≤ {} rad/s)", j.gain, j.max_speed),
+        }
+    }
+}
+
 impl Primitive {
     /// The first parameter that is not finite and positive, as `(name, value)`.
     pub fn invalid_parameter(&self) -> Option<(&'static str, f64)> {

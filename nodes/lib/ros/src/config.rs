@@ -14,6 +14,13 @@
 //! an absolute path, or one that does not start with `config/` is returned unchanged; otherwise
 //! `config/REST` becomes `<config dir>/REST`.
 //!
+//! **The rule, for every command and node**: a path that starts with `config/` (or is `config`)
+//! and does not exist from the working directory names the file in the config directory. Every
+//! binary applies it to its whole command line ([`resolve_args`], before parsing) and to its
+//! defaults ([`path_arg`], a clap value parser), so `cowork primitives list`, `cowork bag synth
+//! gestures`, `cowork supervisor run --ltm config/tasks/kitchen.schema` and the nodes work from
+//! any directory.
+//!
 //! ```no_run
 //! let urdf = cowork_ros::config::resolve("config/robot/lwr4plus.urdf");
 //! println!("{}", urdf.display());
@@ -101,6 +108,44 @@ pub fn resolve(path: impl AsRef<Path>) -> PathBuf {
     }
 }
 
+/// [`resolve`] as a clap value parser, for path arguments with a `config/...` default:
+/// `#[arg(long, default_value = "config/x.yaml", value_parser = cowork_ros::config::path_arg)]`.
+pub fn path_arg(value: &str) -> Result<PathBuf, std::convert::Infallible> {
+    Ok(resolve(value))
+}
+
+/// `args` (a binary's command line, program name first) with every argument that is a path
+/// under `config/` resolved ([`resolve`]), also in the `--flag=config/...` form. Arguments after
+/// a `--` (another program's command line) are left as they are.
+pub fn resolve_args(args: impl IntoIterator<Item = std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut rest_is_foreign = false;
+    args.into_iter()
+        .enumerate()
+        .map(|(i, arg)| {
+            if i == 0 || rest_is_foreign {
+                return arg;
+            }
+            let Some(text) = arg.to_str() else { return arg };
+            if text == "--" {
+                rest_is_foreign = true;
+                return arg;
+            }
+            let (flag, value) = match text.split_once('=') {
+                Some((f, v)) if f.starts_with("--") => (Some(f), v),
+                _ => (None, text),
+            };
+            if value != "config" && !value.starts_with("config/") {
+                return arg;
+            }
+            let path = resolve(value);
+            match flag {
+                Some(f) => format!("{f}={}", path.display()).into(),
+                None => path.into_os_string(),
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -118,6 +163,18 @@ mod tests {
     fn paths_outside_config_and_absolute_paths_are_unchanged() {
         assert_eq!(resolve("/abs/config/x.yaml"), Path::new("/abs/config/x.yaml"));
         assert_eq!(resolve("out/missing.yaml"), Path::new("out/missing.yaml"));
+    }
+
+    #[test]
+    fn command_lines_resolve_config_paths_and_leave_the_rest() {
+        let os = |v: &[&str]| v.iter().map(std::ffi::OsString::from).collect::<Vec<_>>();
+        let out = resolve_args(os(&["cowork", "supervisor", "run", "--ltm", "config/tasks/kitchen.schema", "--x=config/lwr_sim.yaml", "out/a", "--", "config/no"]));
+        let out: Vec<String> = out.into_iter().map(|a| a.to_string_lossy().into_owned()).collect();
+        assert_eq!(&out[..3], ["cowork", "supervisor", "run"]);
+        assert!(Path::new(&out[4]).is_file(), "{}", out[4]);
+        let x = out[5].strip_prefix("--x=").expect("flag kept");
+        assert!(Path::new(x).is_file(), "{x}");
+        assert_eq!(&out[6..], ["out/a", "--", "config/no"]);
     }
 
     #[test]

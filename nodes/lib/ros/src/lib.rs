@@ -35,6 +35,7 @@ pub mod domain;
 pub mod graph;
 pub mod input;
 mod joints;
+pub mod log;
 pub use joints::joint_positions;
 mod node;
 pub use node::{discovery_on_all_networks, domain_id_from_env, is_name_token};
@@ -56,14 +57,18 @@ pub use node::{NodeConfig, Publisher, RosNode, Subscription, TopicInfo};
 pub const DEFAULT_LOG_FILTER: &str =
     "info,rustdds=off,ros2_client=error,ros2_client::node=off,ros2_client::distributions=off";
 
-/// Sets up `tracing` logging to stderr, filtered by `RUST_LOG` (default [`DEFAULT_LOG_FILTER`]).
+/// Sets up `tracing` logging to stderr, filtered by `RUST_LOG` (default [`DEFAULT_LOG_FILTER`]):
+/// colour only on a terminal, wall clock and simulated time on every line, repeated lines folded
+/// ([`log`]).
 pub fn init_logging() {
     let filter = tracing_subscriber::EnvFilter::try_from_default_env()
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(DEFAULT_LOG_FILTER));
     // A second call (tests) is harmless.
     let _ = tracing_subscriber::fmt()
         .with_env_filter(filter)
-        .with_writer(std::io::stderr)
+        .with_timer(log::WallAndSimTime)
+        .with_ansi(log::colour())
+        .with_writer(log::FoldingStderr::default())
         .try_init();
 }
 
@@ -279,7 +284,7 @@ impl NodeArgs {
 /// respawn would: what the node held in memory starts over.
 pub fn node_main<A: clap::Parser>(run: impl Fn(A) -> anyhow::Result<()>) -> std::process::ExitCode {
     init_logging();
-    let (args, ros) = match split_ros_args(std::env::args_os().collect()) {
+    let (args, ros) = match split_ros_args(config::resolve_args(std::env::args_os())) {
         Ok(split) => split,
         Err(e) => return exit_code(Err(e)),
     };

@@ -331,7 +331,10 @@ impl RosNode {
             .spawn(move || {
                 while !stopped.load(Ordering::SeqCst) && !crate::shutdown::requested() {
                     match clock.recv_timeout(Duration::from_millis(100)) {
-                        Some(c) => shared.store(c.clock.to_nanos(), Ordering::Release),
+                        Some(c) => {
+                            shared.store(c.clock.to_nanos(), Ordering::Release);
+                            crate::log::set_sim_time_ns(c.clock.to_nanos());
+                        }
                         None => continue,
                     }
                 }

@@ -1,9 +1,12 @@
-//! Crash-safe writes of learned data (LTM schemas, motion models, the primitive database).
+//! Crash-safe writes of everything cowork writes: learned data (LTM schemas, motion models, the
+//! primitive database) and every command's output (bags, CSV, JSON, reports).
 //!
 //! [`write_atomic`] writes a temporary file in the target's directory, syncs it to disk, renames
 //! it over the target and syncs the directory, so that a crash or `kill -9` at any instant
 //! leaves either the old file or the new one, complete, and a completed write survives a power
-//! loss.
+//! loss. [`AtomicFile`] does the same for output written piece by piece (a bag, a CSV): the
+//! target appears whole when [`AtomicFile::commit`] is called, and a command that fails before
+//! it leaves the target as it was (an existing file untouched, a new one never created).
 //!
 //! ```
 //! let dir = tempfile::tempdir()?;
@@ -19,10 +22,7 @@ use std::path::Path;
 /// Replaces `path` with `bytes` atomically and durably (temporary file in the same directory,
 /// `fsync`, rename, `fsync` of the directory). The error names the step and the file.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = parent_dir(path);
     let at = |step: &str, file: &Path| {
         let file = file.display().to_string();
         let step = step.to_owned();
@@ -40,6 +40,77 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     sync_dir(dir).map_err(at("syncing the directory", dir))
 }
 
+/// A file written piece by piece that replaces `path` only when [`commit`](Self::commit) is
+/// called: until then the bytes go to a temporary file beside the target
+/// (`.tmp-<pid>-<name>-<random>`, in the same directory so the rename is atomic), and dropping
+/// it uncommitted (an error, a panic) removes the temporary. A process killed before the commit
+/// leaves the temporary behind ([`partial_path`](Self::partial_path); a recorder's bag there is
+/// readable up to its last flushed chunk) and the target untouched. Implements `Write` and
+/// `Seek` (the `mcap` writer seeks).
+#[derive(Debug)]
+pub struct AtomicFile {
+    path: std::path::PathBuf,
+    tmp: tempfile::NamedTempFile,
+}
+
+impl AtomicFile {
+    /// Starts writing `path`. The error names the directory when the temporary cannot be
+    /// created there (missing directory, no permission).
+    pub fn create(path: impl AsRef<Path>) -> std::io::Result<Self> {
+        let path = path.as_ref().to_path_buf();
+        let dir = parent_dir(&path);
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!("{TEMP_PREFIX}{}-{name}-", std::process::id()))
+            .tempfile_in(dir)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("creating a temporary file in {}: {e}", dir.display())))?;
+        Ok(Self { path, tmp })
+    }
+
+    /// The file this writes (once committed).
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Where the bytes are until the commit.
+    pub fn partial_path(&self) -> &Path {
+        self.tmp.path()
+    }
+
+    /// Syncs the bytes to disk and renames the temporary onto the target (then syncs the
+    /// directory). Flush any buffered writer around it first.
+    pub fn commit(self) -> std::io::Result<()> {
+        let Self { path, tmp } = self;
+        let named = |step: &str, e: std::io::Error| std::io::Error::new(e.kind(), format!("{step} {}: {e}", path.display()));
+        tmp.as_file().sync_all().map_err(|e| named("syncing the temporary file of", e))?;
+        tmp.persist(&path).map_err(|e| named("renaming a temporary file onto", e.error))?;
+        sync_dir(parent_dir(&path)).map_err(|e| named("syncing the directory of", e))
+    }
+}
+
+impl std::io::Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.tmp.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.tmp.flush()
+    }
+}
+
+impl std::io::Seek for AtomicFile {
+    fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.tmp.seek(pos)
+    }
+}
+
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
 /// Names of [`write_atomic`]'s temporary files start with this, then the writer's pid and `-`.
 pub const TEMP_PREFIX: &str = ".tmp-";
 
@@ -48,10 +119,7 @@ pub const TEMP_PREFIX: &str = ".tmp-";
 /// gone (Linux: no `/proc/<pid>`; elsewhere, or without a pid: older than an hour). A live
 /// writer's temporary is never touched. Returns the removed paths, for the caller's log.
 pub fn remove_orphan_temporaries(target: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
-    let dir = match target.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = parent_dir(target);
     let entries = match std::fs::read_dir(dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
@@ -132,10 +200,36 @@ mod tests {
     }
 
     #[test]
+    fn an_uncommitted_file_leaves_the_old_target_untouched_and_no_temporary() {
+        use std::io::Write as _;
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("run.mcap");
+        std::fs::write(&path, b"the old bag").expect("old");
+        {
+            let mut f = AtomicFile::create(&path).expect("create");
+            f.write_all(b"half of a new one").expect("write");
+            assert!(f.partial_path().exists());
+            assert_eq!(std::fs::read(&path).expect("read"), b"the old bag", "untouched while writing");
+        } // dropped: the command failed
+        assert_eq!(std::fs::read(&path).expect("read"), b"the old bag");
+        let names: Vec<_> = std::fs::read_dir(dir.path()).expect("dir").map(|e| e.expect("entry").file_name()).collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("run.mcap")]);
+        let fresh = dir.path().join("new.csv");
+        drop(AtomicFile::create(&fresh).expect("create"));
+        assert!(!fresh.exists(), "a failed first write creates nothing");
+        let mut f = AtomicFile::create(&fresh).expect("create");
+        f.write_all(b"a,b\n").expect("write");
+        f.commit().expect("commit");
+        assert_eq!(std::fs::read(&fresh).expect("read"), b"a,b\n");
+    }
+
+    #[test]
     fn a_missing_directory_is_an_error_naming_it() {
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("no/such/dir/model.json");
         let e = write_atomic(&path, b"x").expect_err("missing directory");
+        assert!(e.to_string().contains("no/such/dir"), "{e}");
+        let e = AtomicFile::create(&path).expect_err("missing directory");
         assert!(e.to_string().contains("no/such/dir"), "{e}");
     }
 }
