@@ -6,6 +6,12 @@ usage: check_report.py REPORT_DIR SCREENSHOT.png DOM.html
   not one flat colour;
 - the DOM Chromium dumped after loading the page says every image loaded (index.html's own
   script writes `data-images-loaded="N/M"` on <body> from `img.complete && naturalWidth > 0`);
+- the summary table fits the 1400 px window the DOM was dumped at (the load script writes
+  `data-summary-fits="yes|no"` and `data-summary-width="TABLE/WINDOW"` on <body>, measured by the
+  browser: the table's scroll width and right edge within the window, no horizontal scrolling);
+- every legend entry of every plot has data: each <img> names its legend (`data-legend`, a JSON
+  list) and its CSV (`data-csv`, beside the PNG, linked under it); the CSV has a column named
+  after each entry with at least one finite number;
 - the screenshot is not blank: at least 5 % of its pixels differ from the page background
   (white; the plots themselves are mostly white: a full report measured 13 %, the summary
   table alone with broken images about 3 %), and it shows plot colours (at least 0.3 % of
@@ -15,6 +21,10 @@ Standard library only (the PNG decoder handles what Chromium and plotters write:
 greyscale / RGB / RGBA / palette, non-interlaced).
 """
 
+import csv
+import html as htmllib
+import json
+import math
 import re
 import struct
 import sys
@@ -82,10 +92,48 @@ def is_colour(p):
     return max(p) - min(p) >= 60
 
 
+def finite(cell):
+    try:
+        return math.isfinite(float(cell))
+    except ValueError:
+        return False
+
+
+def check_legends(report, html):
+    """Every <img>'s legend entries have at least one finite value in its CSV."""
+    tags = re.findall(r"<img\b[^>]*>", html)
+    if not tags:
+        sys.exit("index.html has no <img>")
+    for tag in tags:
+        attrs = {k: htmllib.unescape(v) for k, v in re.findall(r'([\w-]+)="([^"]*)"', tag)}
+        src = attrs.get("src", "?")
+        if "data-legend" not in attrs or "data-csv" not in attrs:
+            sys.exit(f"{src}: no data-legend / data-csv: the legend's data cannot be checked")
+        legend = json.loads(attrs["data-legend"])
+        path = report / attrs["data-csv"]
+        if not path.is_file():
+            sys.exit(f"{src}: its CSV {path.name} is missing")
+        if f'href="{attrs["data-csv"]}"' not in html:
+            sys.exit(f"{src}: its CSV {path.name} is not linked on the page")
+        with path.open(newline="") as f:
+            rows = list(csv.reader(f))
+        if not rows or rows[0][:1] != ["t"]:
+            sys.exit(f"{path.name}: no header starting with the time column t")
+        header = rows[0]
+        for name in legend:
+            if name not in header:
+                sys.exit(f"{src}: legend entry {name!r} has no column in {path.name} ({header})")
+            k = header.index(name)
+            if not any(len(r) > k and finite(r[k]) for r in rows[1:]):
+                sys.exit(f"{src}: legend entry {name!r} has no data in {path.name}")
+    print(f"report check: {len(tags)} plots, every legend entry has data in its CSV")
+
+
 def main():
     report, shot, dom = Path(sys.argv[1]), Path(sys.argv[2]), Path(sys.argv[3])
     html = (report / "index.html").read_text()
     imgs = re.findall(r'<img src="([^"]+)"', html)
+    check_legends(report, html)
     if len(imgs) < 5:
         sys.exit(f"index.html has {len(imgs)} <img> elements, expected the >= 5 plots of a trial")
     for name in imgs:
@@ -101,6 +149,13 @@ def main():
     loaded, total = int(m.group(1)), int(m.group(2))
     if total != len(imgs) or loaded != total:
         sys.exit(f"Chromium loaded {loaded}/{total} images ({len(imgs)} in index.html)")
+    dom_text = dom.read_text()
+    fits = re.search(r'data-summary-fits="(yes|no)"', dom_text)
+    width = re.search(r'data-summary-width="([^"]*)"', dom_text)
+    if not fits:
+        sys.exit("the dumped DOM has no data-summary-fits: the page does not measure its summary table")
+    if fits.group(1) != "yes":
+        sys.exit(f"the summary table does not fit a 1400 px window (table/window px: {width.group(1) if width else '?'})")
     w, h, rows = decode_png(shot)
     pixels = [p for row in rows[::2] for p in row[::2]]
     non_white = sum(1 for p in pixels if min(p) < 235) / len(pixels)

@@ -2,8 +2,9 @@
 # The experiment report in a browser: a short stacking-hri trial in the graph writes its report
 # (`cowork experiment --report`), headless Chromium (Debian `chromium`, installed by
 # tests/install-system-deps.sh) opens index.html, dumps the DOM after load and takes a
-# screenshot; check_report.py checks every plot loaded and the screenshot is not blank and
-# shows the plots. The screenshot is kept at $REPORT_OUT/report.png (default out/crosscheck-report).
+# screenshot; check_report.py checks every plot loaded, the summary table fits a 1400 px window,
+# every legend entry has data in the plot's CSV, and the screenshot is not blank and shows the
+# plots. The screenshot is kept at $REPORT_OUT/report.png (default out/crosscheck-report).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 : "${VENV:=.venv-crosscheck}"
@@ -46,7 +47,9 @@ profile=$(mktemp -d)
 trap 'rm -rf "$profile"' EXIT
 flags=(--headless --no-sandbox --disable-gpu --hide-scrollbars --user-data-dir="$profile"
        --no-first-run --virtual-time-budget=5000)
-timeout 120 "$browser" "${flags[@]}" --dump-dom "$page" > "$out/dom.html" 2> "$out/chromium-dom.log"
+# The DOM at a 1400 px wide window: the page's load script measures whether the summary table
+# fits (data-summary-fits) at that width.
+timeout 120 "$browser" "${flags[@]}" --window-size=1400,2600 --dump-dom "$page" > "$out/dom.html" 2> "$out/chromium-dom.log"
 timeout 120 "$browser" "${flags[@]}" --window-size=1400,2600 --screenshot="$out/report.png" "$page" \
   > "$out/chromium-shot.log" 2>&1
 [[ -s "$out/report.png" ]] || { tail -n 5 "$out/chromium-shot.log"; echo "check_report: no screenshot"; exit 1; }

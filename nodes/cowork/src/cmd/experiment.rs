@@ -13,9 +13,10 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use cowork_experiment::cooperation::Latency;
 use cowork_experiment::judge::Subtask;
-use cowork_experiment::report::ReportTrial;
+use cowork_experiment::report::{Metadata, ReportHead, ReportTrial, Table};
 use cowork_experiment::{
-    DistanceMethod, Experiment, Judge, Output, Progress, RunResult, Sequencer, Stats, TrialResult,
+    DistanceMethod, Experiment, Judge, Output, Progress, RunResult, Sequencer, Stats,
+    THESIS_MIN_DISTANCE_M, TrialResult,
 };
 use cowork_msgs::builtin_interfaces::Time;
 use cowork_msgs::msg::{
@@ -77,14 +78,14 @@ pub struct ExperimentArgs {
     #[arg(long, default_value = "out/experiments/logs")]
     pub logs: PathBuf,
     /// Directory of the node binaries.
-    #[arg(long, default_value = "target/release")]
+    #[arg(long, default_value = "target/release", value_parser = crate::cmd::bin_dir_arg)]
     pub bin_dir: PathBuf,
     /// ds_controller's parameter file (e.g. a copy with `safety: enabled: false` to measure
     /// the thesis's controller alone).
-    #[arg(long, default_value = "config/ds_controller.yaml")]
+    #[arg(long, default_value = "config/ds_controller.yaml", value_parser = cowork_ros::config::path_arg)]
     pub ds_params: PathBuf,
     /// human_observer's parameter file.
-    #[arg(long, default_value = "config/human_observer.yaml")]
+    #[arg(long, default_value = "config/human_observer.yaml", value_parser = cowork_ros::config::path_arg)]
     pub observer_params: PathBuf,
     /// Kitchen experiments: nobody passes by (by default a person drawn from the seed walks
     /// up to the table, reaches once into the robot's workspace and leaves).
@@ -168,10 +169,7 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     }
     let distance = DistanceMethod::parse(&args.distance)
         .with_context(|| format!("--distance {:?}: must be fded or flacco", args.distance))?;
-    let root = PathBuf::from(".");
-    if !root.join("config/robot/lwr4plus.urdf").is_file() {
-        bail!("run from the repository root (config/robot/lwr4plus.urdf not found)");
-    }
+    let root = crate::cmd::config_root()?;
     // Build every trial first: a bad name, scene or option fails before anything starts.
     let trials: Vec<Experiment> = (0..args.trials)
         .map(|k| {
@@ -263,11 +261,7 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     let run = RunResult::new(&args.name, results);
     println!("{}", serde_json::to_string_pretty(&run.summary)?);
     if let Some(dir) = &args.report {
-        cowork_experiment::report::write_report(
-            dir,
-            &format!("cowork experiment {}", args.name),
-            &report,
-        )?;
+        cowork_experiment::report::write_report(dir, report_head(&args, &run), &report)?;
         println!("report: {}", dir.join("index.html").display());
     }
     Ok(())
@@ -350,6 +344,7 @@ pub fn report_trial(
         ),
     ];
     let mut row = row;
+    row.extend(cowork_experiment::report::near_person_columns(&series));
     if !r.gesture_reactions.is_empty() {
         let acted = r.gesture_reactions.iter().filter(|g| g.acted).count();
         row.push((
@@ -372,12 +367,60 @@ pub fn report_trial(
     }
 }
 
+/// The report's head: the run's metadata and the thesis's numbers beside ours (Sec. 5.1.3).
+fn report_head(args: &ExperimentArgs, run: &RunResult) -> ReportHead {
+    let mut meta = Metadata::of_this_run()
+        .with("experiment", args.name.clone())
+        .with(
+            "rate",
+            if args.max { "--max (as fast as possible: a plumbing check)".to_owned() } else { format!("{} simulated s per wall-clock s", args.rate) },
+        )
+        .with(
+            "seeds",
+            match run.trials.len() {
+                1 => args.seed.to_string(),
+                n => format!("{}–{} ({n} trials)", args.seed, args.seed + n as u64 - 1),
+            },
+        )
+        .with("distances", args.distance.clone());
+    if let Some(l) = args.time_limit {
+        meta = meta.with("time limit", format!("{l} simulated s"));
+    }
+    for t in &run.trials {
+        let person = t.variant.as_ref().map_or("-".into(), cowork_experiment::report::describe_person);
+        meta = meta.with(format!("person, seed {}", t.seed), person);
+    }
+    let n = run.trials.len();
+    let speed = |f: fn(&TrialResult) -> Option<f64>| {
+        Stats::of(run.trials.iter().filter_map(f)).map_or("-".into(), |s| format!("{:.3}", s.median))
+    };
+    let table = Table {
+        caption: format!("Thesis Sec. 5.1.3 beside our {n} trial(s)"),
+        header: ["", "thesis", "ours"].map(String::from).to_vec(),
+        rows: vec![
+            vec![
+                "smallest robot–person distance (m)".into(),
+                format!("{THESIS_MIN_DISTANCE_M:.3} (with fDED)"),
+                run.summary.min_distance_m.map_or("-".into(), |d| format!("{d:.3} (true geometry; the robot avoided with {})", args.distance)),
+            ],
+            vec![
+                "trials closer than the thesis's smallest distance".into(),
+                String::new(),
+                format!("{}/{n}", run.summary.below_thesis_min_distance),
+            ],
+            vec!["tool speed, person far (m/s; median)".into(), "0.3 (α_h)".into(), speed(|t| t.speed_far_m_s)],
+            vec!["tool speed, person close (m/s; median)".into(), "0.1 (α_h)".into(), speed(|t| t.speed_interaction_m_s)],
+            vec!["collisions (true geometry)".into(), String::new(), run.summary.collisions.to_string()],
+        ],
+    };
+    ReportHead { title: format!("cowork experiment {}", args.name), meta, tables: vec![table] }
+}
+
 fn write_json(path: &Path, run: &RunResult) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)?;
     }
-    std::fs::write(path, serde_json::to_string_pretty(run)? + "\n")
-        .with_context(|| format!("writing {}", path.display()))
+    crate::cmd::output::write(path, serde_json::to_string_pretty(run)? + "\n")
 }
 
 /// Latest messages of the graph the runner reads.

@@ -1,11 +1,12 @@
 //! `cowork report RUN.mcap... -o DIR`: the experiment report of recorded runs, judged from the
-//! bags exactly as `cowork experiment` judges live.
+//! bags exactly as `cowork experiment` judges live. A plot whose topics the bag lacks is not
+//! drawn; the page names the missing topics.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
-use cowork_experiment::report::{ReportTrial, write_report};
+use cowork_experiment::report::{Metadata, ReportHead, ReportTrial, near_person_columns, write_report};
 use cowork_experiment::{Judge, Stats};
 use cowork_robot::RobotModel;
 
@@ -19,7 +20,7 @@ pub struct ReportArgs {
     #[arg(short, long)]
     pub output: PathBuf,
     /// Robot description.
-    #[arg(long, default_value = "config/robot/lwr4plus.urdf")]
+    #[arg(long, default_value = "config/robot/lwr4plus.urdf", value_parser = cowork_ros::config::path_arg)]
     pub urdf: PathBuf,
 }
 
@@ -82,13 +83,23 @@ pub fn run(args: ReportArgs) -> Result<()> {
                     .join(" "),
             ),
         ];
+        let mut row = row;
+        row.extend(near_person_columns(s));
         trials.push(ReportTrial {
             title: bag.display().to_string(),
             row,
             series: judge.series,
         });
     }
-    write_report(&args.output, "cowork report", &trials)?;
+    let bags: Vec<String> = args.bags.iter().map(|b| b.display().to_string()).collect();
+    let head = ReportHead {
+        title: "cowork report".into(),
+        meta: Metadata::of_this_run()
+            .with("bags", bags.join(", "))
+            .with("rate, seed, person", "not recorded in a bag: see the run's JSON or its command line"),
+        tables: Vec::new(),
+    };
+    write_report(&args.output, head, &trials)?;
     println!("report: {}", args.output.join("index.html").display());
     Ok(())
 }

@@ -27,18 +27,32 @@ const PERSON_TIMEOUT_S: f64 = 0.5;
 /// Distances beyond this are not computed exactly (m).
 const RANGE_M: f64 = 6.0;
 
-/// Mode of the human observer as plotted: far, interaction, stopped, nobody.
+/// The human observer's reach: a person whose body comes closer to the robot than this is in
+/// the interaction area (human_observer's default `interaction_enter_m`, thesis Sec. 5.1.3), m.
+pub const INTERACTION_AREA_M: f64 = 0.8;
+
+/// One `/human/state` as the report draws it: the message's own fields, its own numbering.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Mode {
-    /// Nobody tracked.
-    Absent,
-    /// Person far: nominal speed.
-    Far,
-    /// Person close: interaction speed.
-    Interaction,
-    /// Stopped (gesture or speech).
-    Stopped,
+pub struct ObservedState {
+    /// `HumanState.mode`: `MODE_FAR` (0) or `MODE_INTERACTION` (1).
+    pub mode: u8,
+    /// Someone is tracked (when false the message's other fields keep their last values).
+    pub present: bool,
+    /// Stopped by a gesture or the spoken `stop`.
+    pub stopped: bool,
+}
+
+/// The tool's fastest moment while a person was in the interaction area.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct NearPersonPeak {
+    /// Simulated time (s).
+    pub t_s: f64,
+    /// Tool speed from `/lwr/world` (m/s, over ≥ 50 ms).
+    pub speed_m_s: f64,
+    /// Speed α_h allowed then (m/s; `None` before any `/human/state`).
+    pub allowed_m_s: Option<f64>,
+    /// True robot–person distance then (m; negative: penetration depth).
+    pub person_distance_m: f64,
 }
 
 /// Time series of one trial (s of simulated time, SI units).
@@ -55,8 +69,8 @@ pub struct Series {
     pub tool_speed: Vec<(f64, f64)>,
     /// α_h of `/human/state` (m/s).
     pub alpha: Vec<(f64, f64)>,
-    /// Mode of `/human/state`.
-    pub mode: Vec<(f64, Mode)>,
+    /// Mode and flags of `/human/state`.
+    pub human_state: Vec<(f64, ObservedState)>,
     /// Gestures recognised (`/human/gesture`).
     pub gestures: Vec<(f64, String)>,
     /// Norm of the commanded joint velocity (rad/s).
@@ -65,6 +79,52 @@ pub struct Series {
     pub executed_qdot: Vec<(f64, f64)>,
     /// Backend that computed the distances (`cpu`, `wgpu`, `spheres`).
     pub backend: String,
+}
+
+impl Series {
+    /// The true robot–person distance at `t` (s): the skeleton frame nearest in time within
+    /// 0.1 s, `None` when nobody was there. `distance` is in time order (frames as they came).
+    pub fn person_distance_at(&self, t: f64) -> Option<f64> {
+        let d = &self.distance;
+        let i = d.partition_point(|s| s.0 < t);
+        [i.checked_sub(1), Some(i)]
+            .into_iter()
+            .flatten()
+            .filter_map(|k| d.get(k))
+            .filter(|s| (s.0 - t).abs() <= 0.1)
+            .min_by(|a, b| (a.0 - t).abs().total_cmp(&(b.0 - t).abs()))
+            .map(|s| s.1)
+    }
+
+    /// α_h of the newest `/human/state` at or before `t` (m/s).
+    pub fn allowed_at(&self, t: f64) -> Option<f64> {
+        let a = &self.alpha;
+        a.partition_point(|s| s.0 <= t).checked_sub(1).map(|i| a[i].1)
+    }
+
+    /// The largest tool speed (`/lwr/world`) while the true robot–person distance was below
+    /// `area_m` (m; [`INTERACTION_AREA_M`] for the observer's interaction area), with the speed
+    /// α_h allowed then and that distance. All from the simulated world but α_h, which is what
+    /// the robot was told. `None` when the person never came that close while the tool moved.
+    pub fn fastest_near_person(&self, area_m: f64) -> Option<NearPersonPeak> {
+        self.tool_speed
+            .iter()
+            .filter(|s| s.1.is_finite())
+            .filter_map(|&(t, speed)| {
+                let d = self.person_distance_at(t).filter(|d| *d < area_m)?;
+                Some(NearPersonPeak {
+                    t_s: t,
+                    speed_m_s: speed,
+                    allowed_m_s: self.allowed_at(t),
+                    person_distance_m: d,
+                })
+            })
+            // The first of equal speeds.
+            .fold(None, |best: Option<NearPersonPeak>, p| match best {
+                Some(b) if b.speed_m_s >= p.speed_m_s => Some(b),
+                _ => Some(p),
+            })
+    }
 }
 
 /// Statistics of a sample set.
@@ -404,16 +464,10 @@ impl Judge {
     pub fn on_human_state(&mut self, msg: &HumanState) {
         let t = msg.header.stamp.to_secs_f64();
         self.series.alpha.push((t, msg.speed_scale));
-        let mode = if !msg.present {
-            Mode::Absent
-        } else if msg.stopped {
-            Mode::Stopped
-        } else if msg.mode == HumanState::MODE_INTERACTION {
-            Mode::Interaction
-        } else {
-            Mode::Far
-        };
-        self.series.mode.push((t, mode));
+        self.series.human_state.push((
+            t,
+            ObservedState { mode: msg.mode, present: msg.present, stopped: msg.stopped },
+        ));
     }
 
     /// `/human/gesture`.

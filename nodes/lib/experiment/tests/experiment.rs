@@ -368,6 +368,10 @@ fn report_writes_pngs_and_an_index() {
         s.tool_speed.push((t, 0.3));
         s.alpha.push((t, if t < 5.0 { 0.3 } else { 0.1 }));
         s.processing_ms.push((t, 1.9));
+        // Every plot has data (a plot without any is not drawn, issue #51).
+        let mode = if t < 5.0 { 0 } else { 1 };
+        s.human_state.push((t, cowork_experiment::judge::ObservedState { mode, present: true, stopped: false }));
+        s.executed_qdot.push((t, 0.2));
     }
     s.backend = "cpu".into();
     let dir = tempfile::tempdir().unwrap();
@@ -384,6 +388,7 @@ fn report_writes_pngs_and_an_index() {
     );
     for name in ["distance", "speed", "mode", "processing", "qdot"] {
         let png = std::fs::read(dir.path().join(format!("trial0-{name}.png"))).unwrap();
+        assert!(dir.path().join(format!("trial0-{name}.csv")).is_file(), "{name}: the data beside the plot");
         assert_eq!(&png[..4], b"\x89PNG", "{name}");
         assert!(
             png.len() > 5000,

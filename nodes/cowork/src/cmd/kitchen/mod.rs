@@ -50,7 +50,7 @@
 //! time the slow-down cost.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
@@ -63,7 +63,7 @@ use cowork_ros::{NodeConfig, Publisher, RosNode, Subscription, shutdown};
 use cowork_sim::Scene;
 use cowork_synth::{Scenario, SynthOptions};
 use cowork_experiment::judge::Series;
-use cowork_experiment::report::{ReportTrial, write_report};
+use cowork_experiment::report::{Metadata, ReportHead, ReportTrial, Table, write_report};
 use serde::Serialize;
 
 use super::experiment::ExperimentArgs;
@@ -328,7 +328,7 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
         "tea-reuse" => &TEA_REUSE,
         _ => &POURING,
     };
-    let scene = Scene::from_file(Path::new("config/scenes/kitchen.yaml")).context("config/scenes/kitchen.yaml (run from the repository root)")?;
+    let scene = Scene::from_file(&cowork_ros::config::resolve("config/scenes/kitchen.yaml")).context("config/scenes/kitchen.yaml (run from the repository root)")?;
     shutdown::install();
     let mut trials = Vec::new();
     for k in 0..args.trials {
@@ -432,38 +432,137 @@ pub fn run(args: &ExperimentArgs) -> Result<()> {
             if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
                 std::fs::create_dir_all(dir)?;
             }
-            std::fs::write(path, serde_json::to_string_pretty(&run)? + "\n").with_context(|| format!("writing {}", path.display()))?;
+            crate::cmd::output::write(path, serde_json::to_string_pretty(&run)? + "\n")?;
         }
     }
     let run = summarise(&args.name, kitchen, trials);
     print_table(&run, kitchen);
     if let Some(dir) = &args.report {
         let reports: Vec<ReportTrial> = run.trials.iter().map(|t| report_trial(&args.name, kitchen, t)).collect();
-        write_report(dir, &format!("cowork experiment {} — {}", args.name, kitchen.table), &reports)?;
+        write_report(dir, report_head(args, kitchen, &run), &reports)?;
         println!("report: {}", dir.join("index.html").display());
     }
     Ok(())
 }
 
-/// A trial's row and plots in the HTML report.
+/// A trial's row and plots in the HTML report: the whole task's time (each subtask's is in
+/// the thesis table), the person, the tool's fastest moment near them, and why it failed.
 fn report_trial(name: &str, kitchen: &Kitchen, t: &KitchenTrial) -> ReportTrial {
     let mut row = vec![
         ("result".to_owned(), if t.success { "success".to_owned() } else { "FAILED".to_owned() }),
-        ("teaching s".to_owned(), format!("{:.1}", t.teaching_s)),
+        ("teaching (s)".to_owned(), format!("{:.1}", t.teaching_s)),
+        (format!("{} (s)", kitchen.task), secs(t.subtasks.get(kitchen.task))),
     ];
-    for &(sub, _, _) in kitchen.thesis {
-        row.push((format!("{sub} s"), secs(t.subtasks.get(sub))));
-    }
     if let Some(o) = &t.open_teaching {
-        row.push(("open subtask taught, s".to_owned(), o.teaching_s.map_or("-".into(), |s| format!("{s:.1}"))));
+        row.push(("open subtask taught (s)".to_owned(), o.teaching_s.map_or("-".into(), |s| format!("{s:.1}"))));
     }
     if let Some(p) = &t.person {
-        row.push(("closest to the person, m".to_owned(), p.min_distance_m.map_or("-".into(), |d| format!("{d:.3}"))));
+        row.push(("closest to person (m)".to_owned(), p.min_distance_m.map_or("-".into(), |d| format!("{d:.3}"))));
         row.push(("contacts".to_owned(), p.collisions.to_string()));
-        row.push(("person's cost, s".to_owned(), format!("{:.1}", p.slowed_cost_s)));
+        row.push(("person's cost (s)".to_owned(), format!("{:.1}", p.slowed_cost_s)));
     }
-    row.push(("reason".to_owned(), t.reason.clone()));
+    row.extend(cowork_experiment::report::near_person_columns(&t.series));
+    row.push(("reason".to_owned(), if t.reason.is_empty() { "-".to_owned() } else { t.reason.clone() }));
     ReportTrial { title: format!("{name} seed {}", t.seed), row, series: t.series.clone() }
+}
+
+/// The report's head: the run's metadata and the thesis's table beside ours (the numbers
+/// `print_table` prints).
+fn report_head(args: &ExperimentArgs, kitchen: &Kitchen, run: &KitchenRun) -> ReportHead {
+    let get = |k: &str| run.summary.get(k).copied();
+    let f = |v: Option<f64>| v.filter(|v| v.is_finite()).map_or("-".into(), |v| format!("{v:.1}"));
+    let thesis = |v: f64| if v.is_finite() { format!("{v:.1}") } else { "− (learned in coffee)".into() };
+    let mut meta = Metadata::of_this_run()
+        .with("experiment", format!("{} — thesis {}", args.name, kitchen.table))
+        .with("rate", format!("{} simulated s per wall-clock s", args.rate))
+        .with(
+            "seeds",
+            match run.trials.len() {
+                1 => args.seed.to_string(),
+                n => format!("{}–{} ({n} trials)", args.seed, args.seed + n as u64 - 1),
+            },
+        )
+        .with("time limit", format!("{:.0} simulated s", args.time_limit.unwrap_or(kitchen.limit_s)));
+    if let Some(fault) = &args.fault {
+        meta = meta.with("fault", format!("{}:{:?} at {} s, down {} s wall", fault.node, fault.kind, args.fault_at, args.fault_down).to_lowercase());
+    }
+    for t in &run.trials {
+        let person = match t.person.as_ref().and_then(|p| p.variant.as_ref()) {
+            Some(v) => cowork_experiment::report::describe_person(v),
+            None => "nobody passes by (--no-person)".into(),
+        };
+        meta = meta.with(format!("person, seed {}", t.seed), person);
+    }
+    let n = run.trials.len();
+    let each = |k: &dyn Fn(&KitchenTrial) -> Option<f64>| {
+        run.trials.iter().map(|t| f(k(t))).collect::<Vec<_>>().join(", ")
+    };
+    let table = if kitchen.teach_open.is_some() {
+        let (water, tea, task) = (kitchen.thesis[0], kitchen.thesis[1], kitchen.thesis[2]);
+        let demo = |sub: &str| f(get(&format!("{sub}_demonstration_s_median")));
+        let with = f(get("reuse_teaching_s_median"));
+        Table {
+            caption: format!("Thesis {}: the thesis's means (five sessions) beside our medians over {n} trial(s), simulated s", kitchen.table),
+            header: ["teaching", "without reuse, thesis", "without reuse, ours", "with reuse, thesis", "with reuse, ours"].map(String::from).to_vec(),
+            rows: vec![
+                vec![water.0.into(), thesis(water.1), demo(water.0), thesis(water.2), "− (learned in coffee)".into()],
+                vec![tea.0.into(), thesis(tea.1), demo(tea.0), thesis(tea.2), with.clone()],
+                vec![task.0.into(), thesis(task.1), f(get("teaching_s_median")), thesis(task.2), with],
+                vec!["success".into(), String::new(), String::new(), "10/10".into(), format!("{}/{n}", get("successes").unwrap_or(0.0) as usize)],
+            ],
+        }
+    } else {
+        let mut header: Vec<String> =
+            ["subtask", "teaching, thesis", "teaching, ours", "execution, thesis", "execution, ours"].map(String::from).to_vec();
+        if n > 1 {
+            header.push("execution, each trial".into());
+        }
+        let mut rows: Vec<Vec<String>> = kitchen
+            .thesis
+            .iter()
+            .map(|&(sub, teach, exec)| {
+                let mut r = vec![
+                    sub.to_owned(),
+                    thesis(teach),
+                    f(get(&format!("{sub}_teaching_s_median"))),
+                    thesis(exec),
+                    f(get(&format!("{sub}_s_median"))),
+                ];
+                if n > 1 {
+                    r.push(each(&|t: &KitchenTrial| t.subtasks.get(sub).and_then(|s| s.time_s)));
+                }
+                r
+            })
+            .collect();
+        let mut whole = vec!["whole demonstration".to_owned(), String::new(), f(get("teaching_s_median")), String::new(), String::new()];
+        if n > 1 {
+            whole.push(String::new());
+        }
+        rows.push(whole);
+        let thesis_success = if kitchen.cooperative {
+            "1/1"
+        } else if kitchen.closed_bottle {
+            "-"
+        } else if kitchen.task == "pourDrink" {
+            "10/10"
+        } else {
+            "9/10"
+        };
+        let mut success = vec!["success".to_owned(), String::new(), String::new(), thesis_success.into(), format!("{}/{n}", get("successes").unwrap_or(0.0) as usize)];
+        if n > 1 {
+            success.push(run.trials.iter().map(|t| if t.success { "yes" } else { "no" }).collect::<Vec<_>>().join(", "));
+        }
+        rows.push(success);
+        Table {
+            caption: format!(
+                "Thesis {}: the thesis's means over ten trials beside our medians over {n} trial(s), simulated s (\"-\": not finished)",
+                kitchen.table
+            ),
+            header,
+            rows,
+        }
+    };
+    ReportHead { title: format!("cowork experiment {} — {}", args.name, kitchen.table), meta, tables: vec![table] }
 }
 
 fn secs(s: Option<&SubtaskTime>) -> String {
@@ -676,11 +775,11 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
     let setup = TeachSetup {
         bags,
         task: kitchen.task.into(),
-        ltm: PathBuf::from("config/tasks/kitchen.schema"),
+        ltm: cowork_ros::config::resolve("config/tasks/kitchen.schema"),
         ltm_out: dir.join("learned.schema"),
         database_dir: dir.join("primitives"),
-        scene: PathBuf::from("config/scenes/kitchen.yaml"),
-        sim_params: PathBuf::from("config/lwr_sim.yaml"),
+        scene: cowork_ros::config::resolve("config/scenes/kitchen.yaml"),
+        sim_params: cowork_ros::config::resolve("config/lwr_sim.yaml"),
         rate: 4.0,
         bin_dir: args.bin_dir.clone(),
         logs: dir.join("teach"),
@@ -757,7 +856,7 @@ fn kitchen_trial(args: &ExperimentArgs, kitchen: &Kitchen, scene: &Scene, seed: 
         }
     }
     let scene_path = dir.join("kitchen.yaml");
-    std::fs::write(&scene_path, serde_yaml_ng::to_string(&exec_scene)?).with_context(|| format!("writing {}", scene_path.display()))?;
+    crate::cmd::output::write(&scene_path, serde_yaml_ng::to_string(&exec_scene)?)?;
     if kitchen.teach_open.is_some() {
         // With reuse: what was learned in `coffee`, on a copy of its database (the open
         // subtask's teaching extends it).
@@ -907,6 +1006,31 @@ struct Knowledge<'a> {
 }
 
 #[allow(clippy::too_many_arguments)]
+/// Clears a progress line when dropped.
+struct ClearOnDrop(indicatif::ProgressBar);
+
+impl Drop for ClearOnDrop {
+    fn drop(&mut self) {
+        self.0.finish_and_clear();
+    }
+}
+
+/// The execution's progress line: simulated time since the first action (of the limit), actions
+/// done, the one running.
+fn execution_progress(pump: &ExecPump, limit_s: f64) -> String {
+    let now = pump.judge.last_t.unwrap_or(0.0);
+    let Some(start) = pump.t_start else { return format!("sim {now:.1} s, waiting for the first action") };
+    let done = pump.events.iter().filter(|e| e.2 && !e.3).count();
+    let failed = pump.events.iter().filter(|e| e.3).count();
+    let running = pump.events.iter().rev().find(|e| !e.2 && !e.3).map_or("", |e| e.1.as_str());
+    format!(
+        "{:.1} of ≤ {limit_s:.0} s simulated, {done} action(s) done{}{}",
+        now - start,
+        if failed > 0 { format!(", {failed} failed") } else { String::new() },
+        if running.is_empty() { String::new() } else { format!(", now {running}") }
+    )
+}
+
 fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, scene: &Path, dir: &Path, trial: &mut KitchenTrial) -> Result<()> {
     let lease = cowork_graph::DomainLease::acquire(&format!("cowork experiment {} seed {}", args.name, trial.seed))?;
     let domain = lease.id();
@@ -916,7 +1040,7 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
     let s = |p: &Path| p.display().to_string();
     let mut node = RosNode::new("cowork_experiment", &NodeConfig { use_sim_time: true, domain_id: Some(domain), ..NodeConfig::default() })?;
     let exec_scene = Scene::from_file(scene).with_context(|| format!("reading {}", scene.display()))?;
-    let model = cowork_robot::RobotModel::from_urdf_file("config/robot/lwr4plus.urdf").context("config/robot/lwr4plus.urdf")?;
+    let model = cowork_robot::RobotModel::from_urdf_file(cowork_ros::config::resolve("config/robot/lwr4plus.urdf")).context("config/robot/lwr4plus.urdf")?;
     let mut pump = ExecPump {
         world: node.subscribe(&topics::WORLD)?,
         distances: node.subscribe(&topics::FDED_DISTANCES)?,
@@ -982,8 +1106,16 @@ fn execute(args: &ExperimentArgs, kitchen: &Kitchen, knowledge: &Knowledge<'_>, 
     // The open subtask's demonstration: sim time the clock stops at after it (lwr_sim follows
     // the teacher's stamps), once played.
     let mut taught_until: Option<f64> = None;
+    let bar = crate::cmd::observe::spinner(&format!("{} seed {}: executing", args.name, trial.seed));
+    // Cleared however the loop ends (a `?` included), so the trial's result line stands alone.
+    let _clear = ClearOnDrop(bar.clone());
+    let mut shown = Instant::now();
     loop {
         pump.pump(trial)?;
+        if shown.elapsed() >= Duration::from_millis(250) {
+            shown = Instant::now();
+            bar.set_message(execution_progress(&pump, limit_s));
+        }
         if let Some(f) = pump.fault.as_mut() {
             let elapsed = pump.t_start.zip(pump.judge.last_t).map(|(s, now)| now - s);
             let during = pump.events.iter().rev().find(|e| !e.2 && !e.3).map(|e| e.1.as_str());
