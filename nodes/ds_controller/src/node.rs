@@ -812,7 +812,8 @@ impl DsNode {
             if changed {
                 // The log says what held the link back (the status only names the link).
                 let detail = o.approach_limited.filter(|_| s.reason.starts_with("approach limited")).map(|l| self.limited_detail(l)).unwrap_or_default();
-                out.notes.push(format!("status: command {} {} {}{detail}", s.command_id, MotionStatus::state_name(s.state), s.reason));
+                let why = if s.reason.is_empty() { String::new() } else { format!(": {}", s.reason) };
+                out.notes.push(format!("status: command {} {}{why}{detail}", s.command_id, MotionStatus::state_name(s.state)));
             }
             out.statuses.push(s);
         }

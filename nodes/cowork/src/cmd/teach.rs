@@ -456,7 +456,7 @@ pub fn teach(s: &TeachSetup) -> Result<Taught> {
         if shown.elapsed() >= Duration::from_millis(250) {
             shown = Instant::now();
             let sim = node.now().to_secs_f64() - t0;
-            bar.set_message(format!("{:.1} of {feed_s:.1} s simulated, {} segment(s)", sim.max(0.0), segments.len()));
+            bar.set_message(format!("{:.1} of {feed_s:.1} s simulated, {} segment(s)", sim.clamp(0.0, feed_s), segments.len()));
         }
         let mut any = false;
         for (k, (arm, robot)) in robots.iter().enumerate() {

@@ -55,7 +55,7 @@ impl std::fmt::Display for Stream {
 pub enum Fault {
     /// An input stream is older than the configured bound (or never arrived), or stamped in
     /// the future (negative age: the clock went back).
-    #[error("stale {stream}: age {age_s} s {}", if *age_s < 0.0 { "is negative (stamp in the future: the clock went back?)".to_owned() } else { format!("exceeds {bound_s} s") })]
+    #[error("stale {stream}: age {age_s:.3} s {}", if *age_s < 0.0 { "is negative (stamp in the future: the clock went back?)".to_owned() } else { format!("exceeds {bound_s} s") })]
     Stale {
         /// The stream.
         stream: Stream,
