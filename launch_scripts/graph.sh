@@ -19,7 +19,8 @@
 #   STATE/kitchen.learned.schema when teaching has written one, else from
 #   config/tasks/kitchen.schema; what it learns (LTM, STATE/primitives) is saved to STATE again
 #   (--state DIR, default out; a fresh DIR starts from the bundled schema).
-# --bridge: also `cowork bridge` (Foxglove WebSocket, ws://localhost:8765 or --bridge-port):
+# --bridge: also `cowork bridge` (Foxglove WebSocket, ws://localhost:8765 or --bridge-port, and
+#   the working-memory tree page on the next port, http://localhost:8766/):
 #   open it in the Foxglove app with the layout config/foxglove-layout.json.
 # --arms "A B": the scene has named arms (config/scenes/pizza.yaml: --arms "left right"); each arm
 #   gets its own fded_distance, ds_controller and robot_manager in its ROS namespace (/A/...,
@@ -163,8 +164,11 @@ echo "supervisor: task $task from $ltm${execute:+ (executing)}"
 start attentional_supervisor $bin/attentional_supervisor --ltm "$ltm" --task "$task" --use-sim-time --save-ltm "$save_ltm"
 if [[ -n $bridge ]]; then
   # Live view: every topic over the Foxglove WebSocket protocol, stamped with the graph's /clock.
-  start cowork_bridge $bin/cowork bridge --port "$bridge_port" --use-sim-time
-  echo "Foxglove: open ws://localhost:$bridge_port (layout: config/foxglove-layout.json)"
+  # The working-memory tree page one port above the WebSocket.
+  start cowork_bridge $bin/cowork bridge --port "$bridge_port" --use-sim-time --wm-page $((bridge_port + 1))
+  layout=config/foxglove-layout.json
+  [[ ${#arms[@]} -gt 1 ]] && layout=config/foxglove-layout-dual.json
+  echo "Foxglove: open ws://localhost:$bridge_port (layout: $layout); working memory: http://localhost:$((bridge_port + 1))/"
 fi
 
 # Wait until any node exits (e.g. --duration reached) or a signal arrives.

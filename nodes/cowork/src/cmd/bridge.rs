@@ -11,6 +11,13 @@
 //! then also announces (the protocol's `time` capability). Mesh files the robot description
 //! names (`file://` URIs under the config directory) are served as assets, so the robot shows
 //! in the 3D panel of the web app too.
+//!
+//! With `--wm-page PORT` the bridge also serves the supervisor's working memory as a live,
+//! collapsible tree on `http://HOST:PORT/` ([`wm_page`]), each behaviour with its state and the
+//! reason of each decision ([`wm_tree`]): a page any browser opens, without a node-count cap.
+
+mod wm_page;
+mod wm_tree;
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::io::Write as _;
@@ -60,6 +67,10 @@ pub struct BridgeArgs {
     /// Write the per-topic figures (forwarded, rate, latency) to this JSON file at the end.
     #[arg(long)]
     pub stats_json: Option<PathBuf>,
+    /// Also serve the working memory (`/supervisor/working_memory`) as a live tree page on
+    /// http://HOST:PORT/ (its data at /wm.json; 0: any free port; the URL is printed).
+    #[arg(long, value_name = "PORT")]
+    pub wm_page: Option<u16>,
 }
 
 /// The last message of a latched topic, replayed to each client that subscribes.
@@ -163,6 +174,10 @@ pub fn run(args: &BridgeArgs) -> Result<()> {
     let mut out = std::io::stdout().lock();
     let _ = out.write_all(banner.as_bytes()).and_then(|()| out.flush());
     drop(out);
+    let wm = match args.wm_page {
+        Some(port) => Some(serve_wm_page(&mut node, &args.host, port)?),
+        None => None,
+    };
 
     let named: BTreeSet<String> = args.topics.iter().cloned().collect();
     let mut served: BTreeMap<String, Served> = BTreeMap::new();
@@ -184,6 +199,12 @@ pub fn run(args: &BridgeArgs) -> Result<()> {
             next_time = now + Duration::from_millis(20);
         }
         let mut got = 0usize;
+        if let Some((sub, shared)) = &wm
+            && let Some(msg) = sub.take_latest()
+        {
+            got += 1;
+            shared.update(&msg);
+        }
         for (topic, s) in &mut served {
             while let Some(sample) = s.sub.take() {
                 got += 1;
@@ -217,7 +238,7 @@ pub fn run(args: &BridgeArgs) -> Result<()> {
     let summaries: Vec<TopicSummary> = served.iter().map(|(t, s)| s.stats.summary(t, &s.type_name)).collect();
     if let Some(path) = &args.stats_json {
         let json = serde_json::to_vec_pretty(&summaries)?;
-        std::fs::write(path, json).with_context(|| format!("writing {}", path.display()))?;
+        crate::cmd::output::write(path, json)?;
     }
     let mut text = table(&summaries);
     for t in named.iter().filter(|t| !served.contains_key(*t)) {
@@ -228,6 +249,28 @@ pub fn run(args: &BridgeArgs) -> Result<()> {
         Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e).context("writing the figures to stdout"),
         _ => Ok(()),
     }
+}
+
+/// Starts the working-memory page on `host:port` and subscribes to the working memory for it;
+/// prints the page's URL (the second line of stdout, after the WebSocket banner).
+fn serve_wm_page(
+    node: &mut RosNode,
+    host: &str,
+    port: u16,
+) -> Result<(cowork_ros::Subscription<cowork_msgs::msg::WorkingMemory>, Arc<wm_page::WmShared>)> {
+    let listener = std::net::TcpListener::bind((host, port))
+        .with_context(|| format!("cannot serve the working-memory page on http://{host}:{port} (port in use? try --wm-page 0)"))?;
+    let port = listener.local_addr().context("the working-memory page's address")?.port();
+    let sub = node
+        .subscribe(&cowork_msgs::topics::WORKING_MEMORY)
+        .with_context(|| format!("subscribing to {}", cowork_msgs::topics::WORKING_MEMORY.name))?;
+    let shared = Arc::new(wm_page::WmShared::default());
+    let domain = cowork_ros::domain_id_from_env().unwrap_or(0);
+    wm_page::spawn(listener, Arc::clone(&shared), domain).context("starting the working-memory page")?;
+    let line = format!("cowork bridge: working memory http://{host}:{port}/ (JSON: /wm.json)\n");
+    let mut out = std::io::stdout().lock();
+    let _ = out.write_all(line.as_bytes()).and_then(|()| out.flush());
+    Ok((sub, shared))
 }
 
 /// Advertises every wanted topic seen with a writer and not served yet. The type is the
@@ -310,25 +353,52 @@ mod tests {
         }
     }
 
-    /// The bundled Foxglove layout: every panel of the tree is configured, and every topic and
-    /// message path it names is one the graph publishes, with a type the bridge serves and a
-    /// field its schema declares.
-    #[test]
-    fn the_foxglove_layout_names_only_topics_and_fields_the_bridge_serves() {
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../config/foxglove-layout.json");
-        let text = std::fs::read_to_string(path).unwrap();
+    fn root() -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+    }
+
+    /// The simulator of `scene` as the graph runs it: its TF frames are the frames a layout
+    /// can name, its robot descriptions what the URDF layers draw.
+    fn simulator(scene: &str) -> lwr_sim::LwrSim {
+        let config: lwr_sim::LwrSimConfig = cowork_ros::params::load(&root().join("config/lwr_sim.yaml"), "lwr_sim").unwrap();
+        let model = cowork_robot::RobotModel::from_urdf_file(root().join("config/robot/lwr4plus.urdf")).unwrap();
+        let scene = cowork_sim::Scene::from_file(&root().join(scene)).unwrap();
+        lwr_sim::LwrSim::new(cowork_sim::Simulator::new(model, scene, config.simulation.clone()).unwrap(), config)
+    }
+
+    /// `/topic.field[:]{key=="v"}.more` → (`/topic`, `field`, filter keys).
+    fn split_path(p: &str) -> (&str, Option<&str>, Vec<&str>) {
+        let Some((topic, rest)) = p.split_once('.') else { return (p, None, Vec::new()) };
+        let field = rest.split(['.', '[', '{']).next();
+        let filters = rest.split('{').skip(1).filter_map(|f| f.split(['=', '!', '<', '>', '}']).next()).map(str::trim).collect();
+        (topic, field, filters)
+    }
+
+    /// A bundled Foxglove layout: every panel of the tree is configured; every topic and message
+    /// path it names is one the graph of `scene` publishes (a per-arm topic under one of the
+    /// scene's arm namespaces), of a type the bridge serves and with the fields its schema
+    /// declares; every frame it names is on the simulator's TF; and there is one URDF layer per
+    /// arm, whose links (with the layer's frame prefix) are frames of that TF, so each robot is
+    /// drawn where it is.
+    fn check_layout(file: &str, scene: &str, needed: &[&str]) {
+        let path = root().join("config").join(file);
+        let text = std::fs::read_to_string(&path).unwrap();
         let layout: serde_json::Value = serde_json::from_str(&text).unwrap();
         let configs = layout["configById"].as_object().expect("configById");
         let mut panels = Vec::new();
         leaves(&layout["layout"], &mut panels);
-        assert!(panels.len() >= 5, "{panels:?}");
+        assert!(panels.len() >= 5, "{file}: {panels:?}");
         for p in &panels {
-            assert!(configs.contains_key(p), "panel {p} has no configuration");
+            assert!(configs.contains_key(p), "{file}: panel {p} has no configuration");
         }
         let mut paths: Vec<String> = Vec::new();
+        let mut frames: Vec<String> = Vec::new();
+        let mut urdfs: Vec<(String, String)> = Vec::new();
         for (id, c) in configs {
+            assert!(!id.is_empty());
             if let Some(t) = c["topics"].as_object() {
                 paths.extend(t.keys().cloned());
+                paths.extend(t.values().filter_map(|v| v["cameraInfoTopic"].as_str().map(str::to_owned)));
             }
             for key in ["topicPath", "imageTopic", "calibrationTopic"] {
                 if let Some(p) = c[key].as_str().or_else(|| c["imageMode"][key].as_str()) {
@@ -338,27 +408,96 @@ mod tests {
             if let Some(list) = c["paths"].as_array() {
                 paths.extend(list.iter().filter_map(|p| p["value"].as_str().map(str::to_owned)));
             }
-            if let Some(t) = c["layers"].as_object().and_then(|l| l.values().find_map(|l| l["topic"].as_str())) {
-                paths.push(t.to_owned());
+            if let Some(f) = c["followTf"].as_str() {
+                frames.push(f.to_owned());
             }
-            assert!(!id.is_empty());
+            for layer in c["layers"].as_object().into_iter().flat_map(|l| l.values()) {
+                if let Some(f) = layer["frameId"].as_str() {
+                    frames.push(f.to_owned());
+                }
+                if let Some(t) = layer["topic"].as_str() {
+                    paths.push(t.to_owned());
+                    if layer["layerId"] == "foxglove.Urdf" {
+                        urdfs.push((t.to_owned(), layer["framePrefix"].as_str().unwrap_or("").to_owned()));
+                    }
+                }
+            }
         }
-        for needed in ["/robot_description", "/tf", "/camera/depth/image_raw", "/fded/markers", "/human/markers", "/supervisor/working_memory"] {
-            assert!(paths.iter().any(|p| p == needed), "the layout does not show {needed}: {paths:?}");
+        for needed in needed {
+            assert!(paths.iter().any(|p| split_path(p).0 == *needed), "{file} does not show {needed}: {paths:?}");
         }
+        let lwr = simulator(scene);
+        let arms = lwr.simulator().arms().len();
+        let namespaces: Vec<String> = (0..arms).map(|a| lwr.namespace(a)).collect();
         for p in &paths {
-            let (topic, field) = p.split_once('.').map_or((p.as_str(), None), |(t, f)| (t, Some(f)));
-            let ty = topic_type(topic).unwrap_or_else(|| panic!("{topic}: not a topic of the graph"));
+            let (topic, field, filters) = split_path(p);
+            let (root_name, ty, _) = cowork_msgs::topics::find(topic).unwrap_or_else(|| panic!("{file}: {topic}: not a topic of the graph"));
+            if root_name != topic {
+                let ns = &topic[..topic.len() - root_name.len()];
+                assert!(namespaces.iter().any(|n| n == ns), "{file}: {topic}: {ns} is no arm of {scene} ({namespaces:?})");
+            }
+            assert_eq!(topic_type(topic).as_deref(), Some(ty.as_str()));
             let info = cowork_msgs::find_type(&ty).unwrap_or_else(|| panic!("{topic}: {ty} has no schema"));
+            let def = (info.definition)();
             if let Some(field) = field {
-                let def = (info.definition)();
                 let top = def.split("\n=").next().unwrap_or("");
-                assert!(
-                    top.lines().any(|l| l.split_whitespace().nth(1) == Some(field)),
-                    "{p}: {ty} has no field {field}"
-                );
+                assert!(top.lines().any(|l| l.split_whitespace().nth(1) == Some(field)), "{file}: {p}: {ty} has no field {field}");
+            }
+            for f in filters {
+                assert!(def.lines().any(|l| l.split_whitespace().nth(1) == Some(f)), "{file}: {p}: no field {f} to filter on");
             }
         }
+        let tf = [lwr.tf(), lwr.tf_static()];
+        let tf_frames: BTreeSet<&str> =
+            tf.iter().flat_map(|m| &m.transforms).flat_map(|t| [t.header.frame_id.as_str(), t.child_frame_id.as_str()]).collect();
+        for f in &frames {
+            assert!(tf_frames.contains(f.as_str()), "{file}: frame {f} is not on the TF of {scene}: {tf_frames:?}");
+        }
+        assert_eq!(urdfs.len(), arms, "{file}: one URDF layer per arm of {scene}: {urdfs:?}");
+        for (arm, ns) in namespaces.iter().enumerate() {
+            let topic = cowork_msgs::topics::ROBOT_DESCRIPTION.name_in(ns);
+            let (_, prefix) = urdfs.iter().find(|(t, _)| *t == topic).unwrap_or_else(|| panic!("{file}: no URDF layer of {topic}"));
+            let urdf = lwr.robot_description(arm).unwrap().data;
+            let links: Vec<&str> = urdf.split("<link name=\"").skip(1).filter_map(|l| l.split('"').next()).collect();
+            assert!(links.len() >= 8, "{topic}: {links:?}");
+            for link in links {
+                let frame = format!("{prefix}{link}");
+                assert!(tf_frames.contains(frame.as_str()), "{file}: {topic}'s link {frame} is not on the TF of {scene}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_foxglove_layout_names_only_topics_frames_and_fields_the_graph_has() {
+        check_layout(
+            "foxglove-layout.json",
+            "config/scenes/kitchen.yaml",
+            &["/robot_description", "/tf", "/camera/depth/image_raw", "/fded/markers", "/human/markers", "/supervisor/working_memory"],
+        );
+    }
+
+    /// The two-arm layout (the pizza graph): both robots, each arm's fDED markers, working
+    /// memory and motion; the one-arm layout names no robot there.
+    #[test]
+    fn the_dual_arm_layout_shows_both_arms_of_the_pizza_graph() {
+        check_layout(
+            "foxglove-layout-dual.json",
+            "config/scenes/pizza.yaml",
+            &[
+                "/left/robot_description",
+                "/right/robot_description",
+                "/tf",
+                "/camera/depth/image_raw",
+                "/left/fded/markers",
+                "/right/fded/markers",
+                "/human/markers",
+                "/supervisor/working_memory",
+                "/left/motion/status",
+                "/right/motion/status",
+            ],
+        );
+        let one_arm = std::panic::catch_unwind(|| check_layout("foxglove-layout.json", "config/scenes/pizza.yaml", &[]));
+        assert!(one_arm.is_err(), "the one-arm layout should not pass for the pizza graph");
     }
 
     #[test]
