@@ -283,7 +283,42 @@ fn draw(
     // The legend goes under the chart, one entry a line, so that it never hides data.
     let entries = shown.len() + marks.len();
     let legend_h = if entries == 0 { 0 } else { 8 + 18 * entries as u32 };
-    let root = BitMapBackend::new(path, (900, 320 + legend_h)).into_drawing_area();
+    // Drawn into a temporary beside the PNG (same extension: plotters picks the format from
+    // it) and renamed onto it once whole, so a failed report never leaves a half-drawn PNG.
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!("{}{}-{name}", cowork_store::TEMP_PREFIX, std::process::id()));
+    let legend = match draw_png(&tmp, path, title, y_label, &shown, marks, (t0, t1), (y0, y1), axis, legend_h) {
+        Ok(legend) => legend,
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
+    };
+    std::fs::rename(&tmp, path).map_err(|e| report_err(path, e))?;
+    let mut columns: Vec<(&str, Vec<(f64, f64)>)> =
+        shown.iter().map(|l| (l.name, l.points.clone())).collect();
+    columns.extend(marks.iter().map(|&(y, name)| (name, vec![(t0, y), (t1, y)])));
+    let csv = path.with_extension("csv");
+    cowork_store::write_atomic(&csv, csv_table(&columns).as_bytes()).map_err(|e| report_err(&csv, e))?;
+    Ok(legend)
+}
+
+/// The PNG of [`draw`] into `tmp` (errors name `path`); the backend is dropped (and the file
+/// closed) before it returns.
+#[allow(clippy::too_many_arguments)]
+fn draw_png(
+    tmp: &Path,
+    path: &Path,
+    title: &str,
+    y_label: &str,
+    shown: &[Line<'_>],
+    marks: &[(f64, &str)],
+    (t0, t1): (f64, f64),
+    (y0, y1): (f64, f64),
+    axis: YAxis<'_>,
+    legend_h: u32,
+) -> Result<Vec<String>> {
+    let root = BitMapBackend::new(tmp, (900, 320 + legend_h)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| report_err(path, e))?;
     let (top, bottom) = root.split_vertically(320);
     let mut chart = ChartBuilder::on(&top)
@@ -308,7 +343,7 @@ fn draw(
     mesh.draw().map_err(|e| report_err(path, e))?;
     // (name, colour, stroke width; 0: a dot).
     let mut legend: Vec<(String, RGBColor, u32)> = Vec::new();
-    for l in &shown {
+    for l in shown {
         let color = l.color;
         let mut dot = true;
         for run in runs(&l.points) {
@@ -346,11 +381,6 @@ fn draw(
             .map_err(|e| report_err(path, e))?;
     }
     root.present().map_err(|e| report_err(path, e))?;
-    let mut columns: Vec<(&str, Vec<(f64, f64)>)> =
-        shown.iter().map(|l| (l.name, l.points.clone())).collect();
-    columns.extend(marks.iter().map(|&(y, name)| (name, vec![(t0, y), (t1, y)])));
-    let csv = path.with_extension("csv");
-    std::fs::write(&csv, csv_table(&columns)).map_err(|e| report_err(&csv, e))?;
     Ok(legend.into_iter().map(|l| l.0).collect())
 }
 
@@ -827,7 +857,7 @@ pub fn write_report(dir: &Path, head: impl Into<ReportHead>, trials: &[ReportTri
     html.push_str(LOAD_SCRIPT);
     html.push_str("</body></html>\n");
     let index = dir.join("index.html");
-    std::fs::write(&index, html).map_err(|e| report_err(&index, e))
+    cowork_store::write_atomic(&index, html.as_bytes()).map_err(|e| report_err(&index, e))
 }
 
 /// `s` quoted for a POSIX shell when it needs to be.
@@ -965,6 +995,13 @@ mod tests {
                 assert!(with_data.contains(&name), "{png}: legend `{name}` has no data ({with_data:?})");
             }
         }
+        // Every file renamed into place whole: no temporary left.
+        let left: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(cowork_store::TEMP_PREFIX))
+            .collect();
+        assert!(left.is_empty(), "{left:?}");
     }
 
     #[test]
